@@ -1,0 +1,247 @@
+/*
+ * pcl_mi: template bodies of pcl::MutualInformationRegistration. They only adapt PCL
+ * clouds to the non-templated core, where all the work happens.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl/common/transforms.h>
+#include <pcl/console/print.h>
+
+namespace pcl {
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::
+    MutualInformationRegistration()
+{
+  reg_name_ = "MutualInformationRegistration";
+  max_iterations_ = core_.parameters().max_iterations;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::
+    ~MutualInformationRegistration() = default;
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setInputSource(
+    const PointCloudSourceConstPtr& cloud)
+{
+  Base::setInputSource(cloud);
+  converged_ = false;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setInputTarget(
+    const PointCloudTargetConstPtr& cloud)
+{
+  Base::setInputTarget(cloud);
+  converged_ = false;
+  pcl_mi::PointList points;
+  if (cloud) {
+    points.reserve(cloud->size());
+    for (const auto& p : *cloud)
+      points.emplace_back(p.x, p.y, p.z);
+  }
+  core_.setTarget(std::move(points));
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::updateSource()
+{
+  pcl_mi::PointList points;
+  if (input_) {
+    if (indices_) {
+      points.reserve(indices_->size());
+      for (const auto i : *indices_) {
+        const PointSource& p = (*input_)[i];
+        points.emplace_back(p.x, p.y, p.z);
+      }
+    }
+    else {
+      points.reserve(input_->size());
+      for (const auto& p : *input_)
+        points.emplace_back(p.x, p.y, p.z);
+    }
+  }
+  core_.setSource(std::move(points));
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+bool
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::applyParameters(
+    const pcl_mi::Parameters& parameters, const char* setter)
+{
+  const std::string error = core_.setParameters(parameters);
+  if (!error.empty()) {
+    PCL_ERROR("[pcl::%s::%s] %s; keeping the previous value.\n",
+              getClassName().c_str(),
+              setter,
+              error.c_str());
+    return false;
+  }
+  return true;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setResolution(
+    double resolution)
+{
+  pcl_mi::Parameters p = getParameters();
+  p.resolution = resolution;
+  applyParameters(p, "setResolution");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeature(
+    pcl_mi::Feature feature)
+{
+  pcl_mi::Parameters p = getParameters();
+  p.feature = feature;
+  applyParameters(p, "setFeature");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeatureBinning(
+    pcl_mi::Feature feature, int num_bins, double max_value)
+{
+  pcl_mi::Parameters p = getParameters();
+  pcl_mi::FeatureBinning& b = feature == pcl_mi::Feature::VarianceZ ? p.variance_z_binning
+                                                                    : p.point_count_binning;
+  b.num_bins = num_bins;
+  b.max_value = max_value;
+  applyParameters(p, "setFeatureBinning");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setSimplexSteps(
+    const Vector6d& steps)
+{
+  pcl_mi::Parameters p = getParameters();
+  p.simplex_steps = steps;
+  applyParameters(p, "setSimplexSteps");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setSymmetricStart(
+    bool symmetric)
+{
+  pcl_mi::Parameters p = getParameters();
+  p.symmetric_start = symmetric;
+  applyParameters(p, "setSymmetricStart");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfRestarts(
+    int restarts)
+{
+  pcl_mi::Parameters p = getParameters();
+  p.restarts = restarts;
+  applyParameters(p, "setNumberOfRestarts");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setTranslationTolerance(
+    double tolerance)
+{
+  pcl_mi::Parameters p = getParameters();
+  p.translation_tolerance = tolerance;
+  applyParameters(p, "setTranslationTolerance");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRotationTolerance(
+    double tolerance)
+{
+  pcl_mi::Parameters p = getParameters();
+  p.rotation_tolerance = tolerance;
+  applyParameters(p, "setRotationTolerance");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+bool
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setParameters(
+    const pcl_mi::Parameters& parameters)
+{
+  if (!applyParameters(parameters, "setParameters"))
+    return false;
+  max_iterations_ = parameters.max_iterations;
+  return true;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+pcl_mi::Parameters
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::getParameters() const
+{
+  pcl_mi::Parameters p = core_.parameters();
+  // The base class's setMaximumIterations() writes max_iterations_ directly.
+  p.max_iterations = max_iterations_;
+  return p;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+double
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::evaluate(
+    const Matrix4& pose)
+{
+  updateSource();
+  std::string error;
+  const double mi = core_.evaluate(pose.template cast<double>(), &error);
+  if (!error.empty())
+    PCL_ERROR("[pcl::%s::evaluate] %s.\n", getClassName().c_str(), error.c_str());
+  return mi;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransformation(
+    PointCloudSource& output, const Matrix4& guess)
+{
+  converged_ = false;
+  nr_iterations_ = 0;
+  result_ = pcl_mi::AlignmentResult();
+  final_transformation_ = guess;
+
+  if (!applyParameters(getParameters(), "computeTransformation")) {
+    result_.error = "invalid parameters";
+  }
+  else {
+    updateSource();
+    try {
+      result_ = core_.align(guess.template cast<double>());
+    }
+    catch (const std::exception& e) {
+      // Only resource exhaustion can throw here (std::bad_alloc); it must not escape.
+      result_ = pcl_mi::AlignmentResult();
+      result_.error = std::string("internal error: ") + e.what();
+    }
+  }
+
+  if (!result_.error.empty()) {
+    PCL_ERROR("[pcl::%s::computeTransformation] %s.\n",
+              getClassName().c_str(),
+              result_.error.c_str());
+    final_transformation_ = guess;
+  }
+  else {
+    final_transformation_ = result_.transformation.template cast<Scalar>();
+    converged_ = result_.converged;
+    nr_iterations_ = result_.iterations;
+  }
+  transformation_ = final_transformation_;
+  previous_transformation_ = final_transformation_;
+  // Like every PCL registration: output is the source under the final transformation.
+  pcl::transformPointCloud(output, output, final_transformation_);
+}
+
+} // namespace pcl

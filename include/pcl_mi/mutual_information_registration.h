@@ -1,0 +1,243 @@
+/*
+ * pcl_mi: 3D scan alignment by maximising the mutual information of voxel features.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_mi/parameters.h>
+#include <pcl_mi/registration_core.h>
+
+#include <pcl/registration/registration.h>
+
+#include <memory>
+#include <string>
+
+namespace pcl {
+
+/** \brief Registration by maximising the mutual information (MI) of voxel features.
+ *
+ * Implements Mehta, McBride and Pandey, "Robust and Fast 3D Scan Alignment using Mutual
+ * Information": both clouds are put on one voxel grid (resolution R_v), every voxel gets a
+ * feature (variance of z, or point count) or the "no feature" value when empty, and the MI
+ * between the target's and the transformed source's features over the intersection of
+ * their bounding boxes is maximised over [tx, ty, tz, roll, pitch, yaw] with Nelder-Mead,
+ * starting from an anisotropic simplex around the guess.
+ *
+ * A drop-in replacement for pcl::GeneralizedIterativeClosestPoint or
+ * pcl::NormalDistributionsTransform:
+ * \code
+ * pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+ * reg.setInputSource(source);
+ * reg.setInputTarget(target);
+ * pcl::PointCloud<pcl::PointXYZ> aligned;
+ * reg.align(aligned, guess);
+ * if (reg.hasConverged()) use(reg.getFinalTransformation());
+ * \endcode
+ *
+ * hasConverged() is true only when the simplex shrank below the tolerances
+ * (setTranslationTolerance(), setRotationTolerance()); hitting the iteration cap
+ * (setMaximumIterations()) or any failure leaves it false. Failures are reported with
+ * PCL_ERROR and getLastError(); no exception leaves align().
+ *
+ * Points with non-finite coordinates are skipped; points cut off from the rest of a cloud
+ * by an empty gap of at least 64 voxels along an axis are dropped as outliers.
+ *
+ * \note Not thread-safe; use one object per thread.
+ */
+template <typename PointSource, typename PointTarget = PointSource, typename Scalar = float>
+class MutualInformationRegistration
+: public Registration<PointSource, PointTarget, Scalar> {
+public:
+  using Base = Registration<PointSource, PointTarget, Scalar>;
+  using typename Base::Matrix4;
+  using typename Base::PointCloudSource;
+  using PointCloudSourceConstPtr = typename PointCloudSource::ConstPtr;
+  using typename Base::PointCloudTarget;
+  using PointCloudTargetConstPtr = typename PointCloudTarget::ConstPtr;
+
+  using Ptr = shared_ptr<MutualInformationRegistration<PointSource, PointTarget, Scalar>>;
+  using ConstPtr =
+      shared_ptr<const MutualInformationRegistration<PointSource, PointTarget, Scalar>>;
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+  /** \brief Paper defaults: 1 m voxels, VarianceZ, simplex [8, 8, 1 m, 0.1, 0.1, 0.8 rad]. */
+  MutualInformationRegistration();
+  ~MutualInformationRegistration() override;
+
+  /** \brief Source cloud (transformed onto the target). Honours setIndices(). */
+  void
+  setInputSource(const PointCloudSourceConstPtr& cloud) override;
+
+  /** \brief Target cloud. Its voxel features are computed once, at the next align() or
+   * evaluate(), and reused until the target or a grid parameter changes. */
+  void
+  setInputTarget(const PointCloudTargetConstPtr& cloud) override;
+
+  /** \brief Voxel edge length R_v (> 0, default 1 m). */
+  void
+  setResolution(double resolution);
+  double
+  getResolution() const
+  {
+    return core_.parameters().resolution;
+  }
+
+  /** \brief Voxel feature (default pcl_mi::Feature::VarianceZ). */
+  void
+  setFeature(pcl_mi::Feature feature);
+  pcl_mi::Feature
+  getFeature() const
+  {
+    return core_.parameters().feature;
+  }
+
+  /** \brief Histogram binning of \a feature: \a num_bins (1..255) equal bins over
+   * [0, max_value), see pcl_mi::FeatureBinning. Defaults: VarianceZ 16 bins up to 1/12
+   * (var(z) / R_v^2), PointCount 16 bins up to 64 points. */
+  void
+  setFeatureBinning(pcl_mi::Feature feature, int num_bins, double max_value);
+  pcl_mi::FeatureBinning
+  getFeatureBinning(pcl_mi::Feature feature) const
+  {
+    return feature == pcl_mi::Feature::VarianceZ ? core_.parameters().variance_z_binning
+                                                 : core_.parameters().point_count_binning;
+  }
+
+  /** \brief Initial simplex step per parameter [tx, ty, tz (m), roll, pitch, yaw (rad)]
+   * (default [8, 8, 1, 0.1, 0.1, 0.8]). A zero step keeps that parameter at the guess. */
+  void
+  setSimplexSteps(const Vector6d& steps);
+  Vector6d
+  getSimplexSteps() const
+  {
+    return core_.parameters().simplex_steps;
+  }
+
+  /** \brief Also search from the mirrored simplex (all steps negated), keeping the better
+   * result (default true; the paper's search is false). */
+  void
+  setSymmetricStart(bool symmetric);
+  bool
+  getSymmetricStart() const
+  {
+    return core_.parameters().symmetric_start;
+  }
+
+  /** \brief Restarts around the best vertex with a 1/4-size simplex (default 2; the paper's
+   * search is 0). */
+  void
+  setNumberOfRestarts(int restarts);
+  int
+  getNumberOfRestarts() const
+  {
+    return core_.parameters().restarts;
+  }
+
+  /** \brief Convergence: every simplex vertex within \a tolerance metres of the best one in
+   * each translation parameter (default 0.005 m). */
+  void
+  setTranslationTolerance(double tolerance);
+  double
+  getTranslationTolerance() const
+  {
+    return core_.parameters().translation_tolerance;
+  }
+
+  /** \brief Convergence: every simplex vertex within \a tolerance radians of the best one in
+   * each rotation parameter (default 0.0005 rad). */
+  void
+  setRotationTolerance(double tolerance);
+  double
+  getRotationTolerance() const
+  {
+    return core_.parameters().rotation_tolerance;
+  }
+
+  /** \brief Replaces all parameters at once; refused (PCL_ERROR, old values kept) if any is
+   * invalid. setMaximumIterations() is taken from \a parameters.max_iterations. */
+  bool
+  setParameters(const pcl_mi::Parameters& parameters);
+  /** \brief All parameters, max_iterations included. */
+  pcl_mi::Parameters
+  getParameters() const;
+
+  /** \brief Nelder-Mead iterations of the last align() (as NDT's getFinalNumIteration()). */
+  int
+  getFinalNumIteration() const
+  {
+    return nr_iterations_;
+  }
+
+  /** \brief Mutual information (nats) at the final transformation of the last align(). */
+  double
+  getFinalMutualInformation() const
+  {
+    return result_.mutual_information;
+  }
+
+  /** \brief Cost evaluations (MI computations) of the last align(). */
+  int
+  getNumberOfEvaluations() const
+  {
+    return result_.evaluations;
+  }
+
+  /** \brief Why the last align() failed; empty after a successful one. */
+  const std::string&
+  getLastError() const
+  {
+    return result_.error;
+  }
+
+  /** \brief Mutual information (nats) of source and target at \a pose (source to target),
+   * e.g. for cost-surface plots. 0 where the clouds do not overlap; negative (with
+   * PCL_ERROR) when the inputs are unusable. */
+  double
+  evaluate(const Matrix4& pose);
+
+  /** \brief The non-templated engine (parameters, joint histograms, diagnostics). */
+  pcl_mi::RegistrationCore&
+  core()
+  {
+    return core_;
+  }
+
+protected:
+  using Base::converged_;
+  using Base::final_transformation_;
+  using Base::getClassName;
+  using Base::indices_;
+  using Base::input_;
+  using Base::max_iterations_;
+  using Base::nr_iterations_;
+  using Base::previous_transformation_;
+  using Base::reg_name_;
+  using Base::target_;
+  using Base::transformation_;
+
+  void
+  computeTransformation(PointCloudSource& output, const Matrix4& guess) override;
+
+private:
+  /** Applies \a parameters, or reports \a setter's refusal and keeps the old ones. */
+  bool
+  applyParameters(const pcl_mi::Parameters& parameters, const char* setter);
+
+  /** Hands the source points selected by indices_ (all when unset) to the core. Done at
+   * every align() because PCL lets indices change between calls without notice. */
+  void
+  updateSource();
+
+  pcl_mi::RegistrationCore core_;
+  pcl_mi::AlignmentResult result_;
+};
+
+} // namespace pcl
+
+#include <pcl_mi/impl/mutual_information_registration.hpp>
+
+#ifndef PCL_MI_NO_PRECOMPILE
+#include <pcl/point_types.h>
+extern template class pcl::MutualInformationRegistration<pcl::PointXYZ>;
+extern template class pcl::MutualInformationRegistration<pcl::PointXYZI>;
+#endif

@@ -1,0 +1,112 @@
+/*
+ * pcl_mi: 3D scan alignment by maximising the mutual information of voxel features.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <Eigen/Core>
+
+#include <string>
+
+namespace pcl_mi {
+
+/** \brief Per-voxel feature whose distribution the mutual information is computed over. */
+enum class Feature {
+  VarianceZ,  ///< variance of the points' z in the voxel (the paper's MI-VARZ)
+  PointCount  ///< number of points in the voxel (the paper's MI-N)
+};
+
+/** \brief Human-readable name of a feature ("VarianceZ", "PointCount"). */
+const char*
+featureName(Feature feature);
+
+/** \brief How the value of an occupied voxel maps to a histogram bin.
+ *
+ * Bin 0 is reserved for unoccupied voxels (the paper's "no feature" value). An occupied
+ * voxel with feature value v falls into
+ *
+ *     bin = 1 + min(num_bins - 1, floor(num_bins * v / max_value))
+ *
+ * so bins 1..num_bins split [0, max_value) into equal intervals and values >= max_value
+ * land in the last bin. The histograms therefore have num_bins + 1 bins.
+ *
+ * Feature values: VarianceZ uses var(z) / resolution^2 (dimensionless, in [0, 0.25];
+ * a voxel filled uniformly top to bottom, such as a wall, gives 1/12), so the binning
+ * does not have to change with the resolution. PointCount uses the plain point count.
+ */
+struct FeatureBinning {
+  int num_bins = 0;       ///< number of bins for occupied voxels (>= 1)
+  double max_value = 0.0; ///< upper end of the binned range (> 0)
+};
+
+/** \brief All tuning parameters of the mutual-information registration, with their defaults.
+ *
+ * The cost is the paper's (Mehta, McBride, Pandey, "Robust and Fast 3D Scan Alignment using
+ * Mutual Information"): 1 m voxels, variance of z, the anisotropic initial simplex
+ * [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]. The default search adds a mirrored start and restarts
+ * (see symmetric_start, restarts); Parameters::paper() turns them off.
+ */
+struct Parameters {
+  /** Voxel edge length R_v in the clouds' units (metres). */
+  double resolution = 1.0;
+  /** Feature used for the histograms. */
+  Feature feature = Feature::VarianceZ;
+  /** Binning of VarianceZ values (var(z) / resolution^2). */
+  FeatureBinning variance_z_binning{16, 1.0 / 12.0};
+  /** Binning of PointCount values (points per voxel). */
+  FeatureBinning point_count_binning{16, 64.0};
+  /** Initial simplex step per parameter [tx, ty, tz (m), roll, pitch, yaw (rad)]. */
+  Eigen::Matrix<double, 6, 1> simplex_steps =
+      (Eigen::Matrix<double, 6, 1>() << 8.0, 8.0, 1.0, 0.1, 0.1, 0.8).finished();
+  /** Also start a second simplex with all steps negated and keep the better result. The
+   * paper's simplex explores mainly along its positive steps and misses large motion in
+   * the opposite direction (e.g. aligning an earlier scan onto a later one). */
+  bool symmetric_start = true;
+  /** Number of restarts around the best vertex after the first search(es), each with the
+   * initial steps scaled by restart_scale and alternating in sign. */
+  int restarts = 2;
+  /** Scale of the restart simplices relative to simplex_steps. */
+  double restart_scale = 0.25;
+  /** Maximum number of Nelder-Mead iterations, summed over all starts and restarts. */
+  int max_iterations = 1000;
+  /** The simplex has converged once every vertex lies within this distance (m) of the best
+   * vertex in each translation parameter ... */
+  double translation_tolerance = 0.005;
+  /** ... and within this angle (rad) in each rotation parameter. */
+  double rotation_tolerance = 0.0005;
+
+  /** \brief The paper's exact search: one simplex from the guess, no mirrored start, no
+   * restarts. */
+  static Parameters
+  paper();
+
+  /** \brief The binning of the selected feature. */
+  const FeatureBinning&
+  binning() const
+  {
+    return feature == Feature::VarianceZ ? variance_z_binning : point_count_binning;
+  }
+
+  /** \brief Checks every value; returns an empty string when valid, else the reason. */
+  std::string
+  validate() const;
+};
+
+/** \brief Outcome of one alignment. */
+struct AlignmentResult {
+  /** Source-to-target transformation (maps source points into the target frame). */
+  Eigen::Matrix4d transformation = Eigen::Matrix4d::Identity();
+  /** True only when the simplex shrank below the tolerances; false when the iteration
+   * cap was hit or the alignment failed. */
+  bool converged = false;
+  /** Nelder-Mead iterations performed. */
+  int iterations = 0;
+  /** Cost (mutual information) evaluations performed. */
+  int evaluations = 0;
+  /** Mutual information (nats) at the final transformation. */
+  double mutual_information = 0.0;
+  /** Empty on success, otherwise why the alignment failed. */
+  std::string error;
+};
+
+} // namespace pcl_mi

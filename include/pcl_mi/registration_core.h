@@ -1,0 +1,99 @@
+/*
+ * pcl_mi: 3D scan alignment by maximising the mutual information of voxel features.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_mi/parameters.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pcl_mi {
+
+/** \brief Point coordinates as the core consumes them: plain xyz, no point type. */
+using PointList = std::vector<Eigen::Vector3f>;
+
+/** \brief Joint histogram of target (X) and source (Y) voxel feature bins over the overlap.
+ *
+ * Row-major: count(x, y) = counts[x * num_bins + y]; bin 0 is "unoccupied". */
+struct JointHistogram {
+  int num_bins = 0;                   ///< bins per axis (occupied bins + 1)
+  std::vector<std::uint32_t> counts;  ///< num_bins * num_bins integer counts
+  std::uint64_t overlap_voxels = 0;   ///< voxels in the overlap region (sum of counts)
+
+  std::uint32_t
+  at(int x, int y) const
+  {
+    return counts[static_cast<std::size_t>(x) * num_bins + y];
+  }
+};
+
+/** \brief Non-templated engine behind pcl::MutualInformationRegistration.
+ *
+ * Owns the point data (in a local frame centred on each cloud, so world offsets such as UTM
+ * coordinates cost no precision), the target's voxel features, the scoring backend and the
+ * Nelder-Mead search. It knows nothing of PCL point types. Not thread-safe: use one
+ * instance per thread.
+ */
+class RegistrationCore {
+public:
+  RegistrationCore();
+  ~RegistrationCore();
+  RegistrationCore(RegistrationCore&&) noexcept;
+  RegistrationCore&
+  operator=(RegistrationCore&&) noexcept;
+  RegistrationCore(const RegistrationCore&) = delete;
+  RegistrationCore&
+  operator=(const RegistrationCore&) = delete;
+
+  /** \brief Replaces all parameters. Returns an empty string on success; otherwise the
+   * reason, and the previous parameters are kept. */
+  std::string
+  setParameters(const Parameters& parameters);
+
+  /** \brief The parameters in force. */
+  const Parameters&
+  parameters() const;
+
+  /** \brief Sets the target points (non-finite points are skipped). Features are computed
+   * lazily, once per target and resolution/feature change. */
+  void
+  setTarget(PointList points);
+
+  /** \brief Sets the source points (non-finite points are skipped). */
+  void
+  setSource(PointList points);
+
+  /** \brief Maximises the mutual information starting from \a guess (source to target). */
+  AlignmentResult
+  align(const Eigen::Matrix4d& guess);
+
+  /** \brief Mutual information (nats) at \a pose (source to target), for cost surfaces and
+   * tests. Returns a negative value and sets \a error if the inputs are unusable; returns 0
+   * where the clouds do not overlap at \a pose. */
+  double
+  evaluate(const Eigen::Matrix4d& pose, std::string* error = nullptr);
+
+  /** \brief Joint histogram at \a pose; false (and \a error) if the inputs are unusable. */
+  bool
+  jointHistogram(const Eigen::Matrix4d& pose,
+                 JointHistogram& histogram,
+                 std::string* error = nullptr);
+
+  /** \brief Number of points dropped from the last target/source as non-finite or as far
+   * outliers (isolated from the rest of the cloud by a large empty gap). */
+  std::size_t
+  droppedTargetPoints() const;
+  std::size_t
+  droppedSourcePoints() const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+} // namespace pcl_mi

@@ -1,0 +1,138 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "backend/scoring_backend.h"
+
+#include "core/feature_binning.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace pcl_mi {
+namespace backend {
+
+namespace {
+
+/** Voxelises the transformed source straight into the target's grid, so the work per
+ * evaluation is one pass over the points plus one over the occupied voxels; the voxels
+ * empty in both clouds are counted, not visited. */
+class CpuBackend final : public ScoringBackend {
+public:
+  const char*
+  name() const override
+  {
+    return "cpu";
+  }
+
+  void
+  setTarget(std::shared_ptr<const core::TargetGrid> target) override
+  {
+    target_ = std::move(target);
+    moments_.assign(target_->geometry.cellCount(), core::VoxelMoments{});
+    touched_.clear();
+  }
+
+  void
+  setSource(std::shared_ptr<const PointList> source) override
+  {
+    source_ = std::move(source);
+  }
+
+  void
+  jointHistogram(const Eigen::Matrix3f& rotation,
+                 const Eigen::Vector3f& translation,
+                 JointHistogram& histogram) override
+  {
+    const core::GridGeometry& g = target_->geometry;
+    const int num_bins = target_->binning.num_bins + 1;
+    histogram.num_bins = num_bins;
+    histogram.counts.assign(static_cast<std::size_t>(num_bins) * num_bins, 0);
+    histogram.overlap_voxels = 0;
+
+    // Map: source points into grid coordinates; reduce: their bounding box.
+    const float inv_res = 1.0f / g.resolution;
+    const Eigen::Matrix3f r = rotation * inv_res;
+    const Eigen::Vector3f t = (translation - g.origin) * inv_res;
+    const PointList& points = *source_;
+    Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+    Eigen::Vector3f max = -min;
+    for (const auto& p : points) {
+      const Eigen::Vector3f f = r * p + t;
+      min = min.cwiseMin(f);
+      max = max.cwiseMax(f);
+    }
+    if (points.empty())
+      return;
+
+    // Overlap: intersection of the two bounding boxes, in whole voxels.
+    Eigen::Vector3i lo, hi;
+    for (int a = 0; a < 3; ++a) {
+      // Clamp before converting: a far-off pose must not overflow the integer cast.
+      const float limit = static_cast<float>(g.dims[a]);
+      lo[a] = std::max(0, static_cast<int>(std::floor(std::max(min[a], -1.0f))));
+      hi[a] = std::min(g.dims[a] - 1, static_cast<int>(std::floor(std::min(max[a], limit))));
+      if (lo[a] > hi[a])
+        return;
+    }
+    histogram.overlap_voxels = static_cast<std::uint64_t>(hi.x() - lo.x() + 1) *
+                               (hi.y() - lo.y() + 1) * (hi.z() - lo.z() + 1);
+
+    // Map: accumulate integer moments of the source points per overlap voxel. The test
+    // runs on floats first so that far points are never cast to int.
+    const Eigen::Vector3f lo_f = lo.cast<float>();
+    const Eigen::Vector3f hi_f = (hi + Eigen::Vector3i::Ones()).cast<float>();
+    for (const auto& p : points) {
+      const Eigen::Vector3f f = r * p + t;
+      if (!((f.array() >= lo_f.array()).all() && (f.array() < hi_f.array()).all()))
+        continue;
+      const int ix = std::min(static_cast<int>(f.x()), hi.x());
+      const int iy = std::min(static_cast<int>(f.y()), hi.y());
+      const int iz = std::min(static_cast<int>(f.z()), hi.z());
+      const std::size_t cell = g.cellIndex(ix, iy, iz);
+      core::VoxelMoments& m = moments_[cell];
+      if (m.count == 0)
+        touched_.push_back(static_cast<std::uint32_t>(cell));
+      m.add(core::quantiseHeight(f.z(), iz));
+    }
+
+    // Histogram: source-occupied voxels, then target-only voxels, then empty in both.
+    std::uint64_t counted = 0;
+    auto bump = [&](int x, int y) {
+      ++histogram.counts[static_cast<std::size_t>(x) * num_bins + y];
+      ++counted;
+    };
+    for (const std::uint32_t cell : touched_)
+      bump(target_->bins[cell],
+           core::voxelBin(target_->feature, target_->binning, moments_[cell]));
+    for (const core::OccupiedVoxel& v : target_->occupied) {
+      if (v.ix < lo.x() || v.iy < lo.y() || v.iz < lo.z() || v.ix > hi.x() ||
+          v.iy > hi.y() || v.iz > hi.z())
+        continue;
+      if (moments_[v.cell].count == 0)
+        bump(v.bin, 0);
+    }
+    histogram.counts[0] += static_cast<std::uint32_t>(histogram.overlap_voxels - counted);
+
+    for (const std::uint32_t cell : touched_)
+      moments_[cell] = core::VoxelMoments{};
+    touched_.clear();
+  }
+
+private:
+  std::shared_ptr<const core::TargetGrid> target_;
+  std::shared_ptr<const PointList> source_;
+  std::vector<core::VoxelMoments> moments_; // per target cell, zero between calls
+  std::vector<std::uint32_t> touched_;      // cells with source points this call
+};
+
+} // namespace
+
+std::unique_ptr<ScoringBackend>
+makeCpuBackend()
+{
+  return std::make_unique<CpuBackend>();
+}
+
+} // namespace backend
+} // namespace pcl_mi

@@ -1,0 +1,50 @@
+/*
+ * pcl_mi: the one interface every compute backend implements: "score this pose".
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include "core/voxel_grid.h"
+
+#include <pcl_mi/registration_core.h>
+
+#include <Eigen/Core>
+
+#include <memory>
+
+namespace pcl_mi {
+namespace backend {
+
+/** \brief Computes the joint feature histogram of the target grid and the transformed
+ * source over their overlap. Everything else (MI, search) is backend-independent. */
+class ScoringBackend {
+public:
+  virtual ~ScoringBackend() = default;
+
+  /** \brief Backend name for messages and profiling ("cpu", ...). */
+  virtual const char*
+  name() const = 0;
+
+  /** \brief The target grid the next histograms are computed against. */
+  virtual void
+  setTarget(std::shared_ptr<const core::TargetGrid> target) = 0;
+
+  /** \brief The source points, in the source's local frame. */
+  virtual void
+  setSource(std::shared_ptr<const PointList> source) = 0;
+
+  /** \brief Joint histogram over the overlap of the target grid's bounding box and the
+   * source transformed by (rotation, translation) into the target's local frame. An empty
+   * overlap gives overlap_voxels == 0. */
+  virtual void
+  jointHistogram(const Eigen::Matrix3f& rotation,
+                 const Eigen::Vector3f& translation,
+                 JointHistogram& histogram) = 0;
+};
+
+/** \brief The reference CPU backend. */
+std::unique_ptr<ScoringBackend>
+makeCpuBackend();
+
+} // namespace backend
+} // namespace pcl_mi

@@ -1,0 +1,43 @@
+/*
+ * pcl_mi: entropies and mutual information from integer histograms.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_mi/registration_core.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace pcl_mi {
+namespace core {
+
+/** \brief Shannon entropy (nats) of the distribution given by integer \a counts. 0 for an
+ * empty histogram. */
+double
+entropy(const std::vector<std::uint64_t>& counts);
+
+/** \brief Entropies of a joint histogram: H(X) (target), H(Y) (source), H(X,Y). */
+struct Entropies {
+  double target = 0.0;
+  double source = 0.0;
+  double joint = 0.0;
+
+  /** MI = H(X) + H(Y) - H(X,Y) (the paper's equation). */
+  double
+  mutualInformation() const
+  {
+    return target + source - joint;
+  }
+};
+
+/** \brief Marginal and joint entropies of \a histogram. */
+Entropies
+entropies(const JointHistogram& histogram);
+
+/** \brief Mutual information (nats) of \a histogram; 0 when it is empty. */
+double
+mutualInformation(const JointHistogram& histogram);
+
+} // namespace core
+} // namespace pcl_mi

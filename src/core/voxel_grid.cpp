@@ -1,0 +1,145 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "core/voxel_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+/** Inclusive [low, high] range of one axis holding the bulk of the values: walking out
+ * from the median in cells of width \a gap, the range ends at the first empty cell. */
+void
+bulkRange(std::vector<float>& values, double gap, double& low, double& high)
+{
+  auto mid = values.begin() + values.size() / 2;
+  std::nth_element(values.begin(), mid, values.end());
+  const double median = *mid;
+  // Cells beyond this many gaps are outliers however the walk goes; the bound also keeps
+  // the cell bookkeeping small for absurd coordinates.
+  constexpr long kMaxCells = 1 << 16;
+  std::vector<bool> occupied(2 * kMaxCells + 1, false);
+  for (const float v : values) {
+    const double k = std::floor((v - median) / gap);
+    if (std::abs(k) <= kMaxCells)
+      occupied[static_cast<std::size_t>(k + kMaxCells)] = true;
+  }
+  long lo = 0, hi = 0;
+  while (lo > -kMaxCells && occupied[static_cast<std::size_t>(lo - 1 + kMaxCells)])
+    --lo;
+  while (hi < kMaxCells && occupied[static_cast<std::size_t>(hi + 1 + kMaxCells)])
+    ++hi;
+  low = median + lo * gap;
+  high = median + (hi + 1) * gap;
+}
+
+} // namespace
+
+LocalCloud
+makeLocalCloud(const PointList& points, double outlier_gap)
+{
+  LocalCloud cloud;
+  PointList finite;
+  finite.reserve(points.size());
+  for (const auto& p : points) {
+    if (p.allFinite())
+      finite.push_back(p);
+    else
+      ++cloud.non_finite;
+  }
+  if (finite.empty())
+    return cloud;
+
+  Eigen::Vector3d low, high;
+  std::vector<float> axis(finite.size());
+  for (int a = 0; a < 3; ++a) {
+    for (std::size_t i = 0; i < finite.size(); ++i)
+      axis[i] = finite[i][a];
+    bulkRange(axis, outlier_gap, low[a], high[a]);
+  }
+
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t kept = 0;
+  for (auto& p : finite) {
+    const Eigen::Vector3d pd = p.cast<double>();
+    if ((pd.array() < low.array()).any() || (pd.array() >= high.array()).any()) {
+      ++cloud.outliers;
+      continue;
+    }
+    finite[kept++] = p;
+    sum += pd;
+  }
+  finite.resize(kept);
+  cloud.centroid = sum / static_cast<double>(kept);
+  cloud.points.reserve(kept);
+  for (const auto& p : finite)
+    cloud.points.push_back((p.cast<double>() - cloud.centroid).cast<float>());
+  return cloud;
+}
+
+bool
+buildTargetGrid(const PointList& points,
+                double resolution,
+                Feature feature,
+                const FeatureBinning& binning,
+                TargetGrid& grid,
+                std::string& error)
+{
+  if (points.empty()) {
+    error = "the target has no usable points";
+    return false;
+  }
+  Eigen::Vector3f min = points.front(), max = points.front();
+  for (const auto& p : points) {
+    min = min.cwiseMin(p);
+    max = max.cwiseMax(p);
+  }
+  GridGeometry& g = grid.geometry;
+  g.resolution = static_cast<float>(resolution);
+  const Eigen::Vector3d first = (min.cast<double>() / resolution).array().floor();
+  const Eigen::Vector3d last = (max.cast<double>() / resolution).array().floor();
+  const Eigen::Vector3d dims = last - first + Eigen::Vector3d::Ones();
+  if (dims.prod() > static_cast<double>(kMaxGridCells)) {
+    std::ostringstream s;
+    s << "the target spans " << dims.x() << " x " << dims.y() << " x " << dims.z()
+      << " voxels at resolution " << resolution << ", more than the " << kMaxGridCells
+      << " a grid may hold; use a coarser resolution or crop the clouds";
+    error = s.str();
+    return false;
+  }
+  g.dims = dims.cast<int>();
+  g.origin = (first * resolution).cast<float>();
+  grid.feature = feature;
+  grid.binning = binning;
+
+  std::vector<VoxelMoments> moments(g.cellCount());
+  const float inv_res = 1.0f / g.resolution;
+  for (const auto& p : points) {
+    const Eigen::Vector3f f = (p - g.origin) * inv_res;
+    const int ix = std::min(std::max(static_cast<int>(std::floor(f.x())), 0), g.dims.x() - 1);
+    const int iy = std::min(std::max(static_cast<int>(std::floor(f.y())), 0), g.dims.y() - 1);
+    const int iz = std::min(std::max(static_cast<int>(std::floor(f.z())), 0), g.dims.z() - 1);
+    moments[g.cellIndex(ix, iy, iz)].add(quantiseHeight(f.z(), iz));
+  }
+  grid.bins.assign(g.cellCount(), 0);
+  grid.occupied.clear();
+  for (int iz = 0; iz < g.dims.z(); ++iz)
+    for (int iy = 0; iy < g.dims.y(); ++iy)
+      for (int ix = 0; ix < g.dims.x(); ++ix) {
+        const std::size_t cell = g.cellIndex(ix, iy, iz);
+        if (moments[cell].count == 0)
+          continue;
+        const auto bin = static_cast<std::uint8_t>(voxelBin(feature, binning, moments[cell]));
+        grid.bins[cell] = bin;
+        grid.occupied.push_back({static_cast<std::uint32_t>(cell), ix, iy, iz, bin});
+      }
+  return true;
+}
+
+} // namespace core
+} // namespace pcl_mi

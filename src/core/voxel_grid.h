@@ -1,0 +1,90 @@
+/*
+ * pcl_mi: cloud preparation (finite points, far-outlier removal, local frame) and the
+ * target's voxel feature grid.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include "core/feature_binning.h"
+
+#include <pcl_mi/registration_core.h>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pcl_mi {
+namespace core {
+
+/** Largest dense grid accepted (cells). Bounds memory to about 16 bytes per cell for the
+ * source accumulators plus 1 byte per cell for the target bins (~280 MB at the cap). */
+constexpr std::size_t kMaxGridCells = std::size_t{1} << 24;
+
+/** Gap, in voxels, that separates far outliers from the bulk of a cloud. */
+constexpr double kOutlierGapVoxels = 64.0;
+
+/** \brief A cloud in its own local frame: point = centroid + local point. */
+struct LocalCloud {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero(); ///< in the input frame, double
+  PointList points;                                   ///< finite inliers, local frame
+  std::size_t non_finite = 0;                         ///< dropped: NaN/Inf coordinates
+  std::size_t outliers = 0;                           ///< dropped: far outliers
+};
+
+/** \brief Drops non-finite points, then points cut off from the bulk of the cloud along
+ * some axis by an empty gap of at least \a outlier_gap, and re-centres the rest on their
+ * centroid (computed in double, so coordinates of 1e6 m keep their sub-millimetre detail
+ * relative to each other). */
+LocalCloud
+makeLocalCloud(const PointList& points, double outlier_gap);
+
+/** \brief Axis-aligned voxel grid: cell (ix, iy, iz) covers
+ * origin + resolution * [ix, ix + 1) x [iy, iy + 1) x [iz, iz + 1). */
+struct GridGeometry {
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+  float resolution = 1.0f;
+  Eigen::Vector3i dims = Eigen::Vector3i::Zero();
+
+  std::size_t
+  cellCount() const
+  {
+    return static_cast<std::size_t>(dims.x()) * dims.y() * dims.z();
+  }
+  std::size_t
+  cellIndex(int ix, int iy, int iz) const
+  {
+    return (static_cast<std::size_t>(iz) * dims.y() + iy) * dims.x() + ix;
+  }
+};
+
+/** \brief An occupied target voxel: its cell coordinates and feature bin. */
+struct OccupiedVoxel {
+  std::uint32_t cell;
+  std::int32_t ix, iy, iz;
+  std::uint8_t bin;
+};
+
+/** \brief The target's features, computed once per target: a dense grid of bins over the
+ * target's bounding box (0 = unoccupied) and the list of occupied voxels. */
+struct TargetGrid {
+  GridGeometry geometry;
+  Feature feature = Feature::VarianceZ;
+  FeatureBinning binning;
+  std::vector<std::uint8_t> bins;
+  std::vector<OccupiedVoxel> occupied;
+};
+
+/** \brief Builds the target grid from local points. False (with \a error) when the cloud
+ * is empty or its extent needs more than kMaxGridCells voxels at this resolution. */
+bool
+buildTargetGrid(const PointList& points,
+                double resolution,
+                Feature feature,
+                const FeatureBinning& binning,
+                TargetGrid& grid,
+                std::string& error);
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,335 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_mi/registration_core.h>
+
+#include "backend/scoring_backend.h"
+#include "core/mutual_information.h"
+#include "core/nelder_mead.h"
+#include "core/pose.h"
+#include "core/voxel_grid.h"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <sstream>
+
+namespace pcl_mi {
+
+const char*
+featureName(Feature feature)
+{
+  switch (feature) {
+  case Feature::VarianceZ:
+    return "VarianceZ";
+  case Feature::PointCount:
+    return "PointCount";
+  }
+  return "unknown";
+}
+
+namespace {
+
+std::string
+validateBinning(const char* what, const FeatureBinning& b)
+{
+  std::ostringstream s;
+  if (b.num_bins < 1 || b.num_bins > 255)
+    s << what << " binning needs 1..255 bins, got " << b.num_bins;
+  else if (!(b.max_value > 0.0) || !std::isfinite(b.max_value))
+    s << what << " binning needs a positive finite maximum value, got " << b.max_value;
+  return s.str();
+}
+
+} // namespace
+
+Parameters
+Parameters::paper()
+{
+  Parameters p;
+  p.symmetric_start = false;
+  p.restarts = 0;
+  return p;
+}
+
+std::string
+Parameters::validate() const
+{
+  std::ostringstream s;
+  if (!(resolution > 0.0) || !std::isfinite(resolution))
+    s << "resolution must be positive and finite, got " << resolution;
+  else if (feature != Feature::VarianceZ && feature != Feature::PointCount)
+    s << "unknown feature " << static_cast<int>(feature);
+  else if (!validateBinning("VarianceZ", variance_z_binning).empty())
+    return validateBinning("VarianceZ", variance_z_binning);
+  else if (!validateBinning("PointCount", point_count_binning).empty())
+    return validateBinning("PointCount", point_count_binning);
+  else if (!simplex_steps.allFinite())
+    s << "simplex steps must be finite";
+  else if (simplex_steps.isZero())
+    s << "at least one simplex step must be non-zero";
+  else if (max_iterations < 1)
+    s << "maximum iterations must be at least 1, got " << max_iterations;
+  else if (!(translation_tolerance > 0.0) || !(rotation_tolerance > 0.0))
+    s << "tolerances must be positive";
+  else if (restarts < 0)
+    s << "restarts must not be negative, got " << restarts;
+  else if (!(restart_scale > 0.0) || !std::isfinite(restart_scale))
+    s << "restart scale must be positive and finite, got " << restart_scale;
+  return s.str();
+}
+
+/** Fewest finite points a cloud needs: MI over fewer occupied voxels says nothing. */
+constexpr std::size_t kMinimumPoints = 3;
+
+struct RegistrationCore::Impl {
+  Parameters parameters;
+  PointList target_input, source_input;
+  bool target_dirty = true, source_dirty = true;
+  bool has_target = false, has_source = false;
+  core::LocalCloud target, source;
+  std::shared_ptr<core::TargetGrid> grid;
+  std::unique_ptr<backend::ScoringBackend> backend = backend::makeCpuBackend();
+  JointHistogram scratch;
+
+  /** Brings the local clouds, the target grid and the backend up to date. */
+  bool
+  prepare(std::string& error)
+  {
+    if (!has_target) {
+      error = "no target cloud was given";
+      return false;
+    }
+    if (!has_source) {
+      error = "no source cloud was given";
+      return false;
+    }
+    const double gap = core::kOutlierGapVoxels * parameters.resolution;
+    if (target_dirty) {
+      grid.reset();
+      target = core::makeLocalCloud(target_input, gap);
+      if (target.points.size() < kMinimumPoints) {
+        error = describeTooFew("target", target);
+        return false;
+      }
+      auto new_grid = std::make_shared<core::TargetGrid>();
+      if (!core::buildTargetGrid(target.points,
+                                 parameters.resolution,
+                                 parameters.feature,
+                                 parameters.binning(),
+                                 *new_grid,
+                                 error)) {
+        return false;
+      }
+      grid = new_grid;
+      backend->setTarget(grid);
+      target_dirty = false;
+    }
+    if (source_dirty) {
+      source = core::makeLocalCloud(source_input, gap);
+      if (source.points.size() < kMinimumPoints) {
+        error = describeTooFew("source", source);
+        return false;
+      }
+      backend->setSource(std::make_shared<const PointList>(source.points));
+      source_dirty = false;
+    }
+    return true;
+  }
+
+  static std::string
+  describeTooFew(const char* which, const core::LocalCloud& cloud)
+  {
+    std::ostringstream s;
+    s << "the " << which << " has " << cloud.points.size() << " usable points ("
+      << cloud.non_finite << " non-finite and " << cloud.outliers
+      << " far outliers dropped); at least " << kMinimumPoints << " are needed";
+    return s.str();
+  }
+
+  /** MI at a source-to-target transformation in the input frames. */
+  double
+  mutualInformation(const Eigen::Matrix4d& pose, JointHistogram& histogram)
+  {
+    // Into the local frames: target_local = R * source_local + R c_s + t - c_t.
+    const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
+    const Eigen::Vector3d t =
+        r * source.centroid + pose.topRightCorner<3, 1>() - target.centroid;
+    if (!r.allFinite() || !t.allFinite()) {
+      histogram.overlap_voxels = 0;
+      return 0.0;
+    }
+    backend->jointHistogram(r.cast<float>(), t.cast<float>(), histogram);
+    return histogram.overlap_voxels == 0 ? 0.0 : core::mutualInformation(histogram);
+  }
+};
+
+RegistrationCore::RegistrationCore() : impl_(std::make_unique<Impl>()) {}
+RegistrationCore::~RegistrationCore() = default;
+RegistrationCore::RegistrationCore(RegistrationCore&&) noexcept = default;
+RegistrationCore&
+RegistrationCore::operator=(RegistrationCore&&) noexcept = default;
+
+std::string
+RegistrationCore::setParameters(const Parameters& parameters)
+{
+  std::string error = parameters.validate();
+  if (!error.empty())
+    return error;
+  const Parameters& old = impl_->parameters;
+  const bool grid_changed = old.resolution != parameters.resolution ||
+                            old.feature != parameters.feature ||
+                            old.binning().num_bins != parameters.binning().num_bins ||
+                            old.binning().max_value != parameters.binning().max_value;
+  if (grid_changed) {
+    impl_->target_dirty = true;
+    // The outlier gap scales with the resolution.
+    impl_->source_dirty = impl_->source_dirty || old.resolution != parameters.resolution;
+  }
+  impl_->parameters = parameters;
+  return {};
+}
+
+const Parameters&
+RegistrationCore::parameters() const
+{
+  return impl_->parameters;
+}
+
+void
+RegistrationCore::setTarget(PointList points)
+{
+  impl_->target_input = std::move(points);
+  impl_->has_target = true;
+  impl_->target_dirty = true;
+}
+
+void
+RegistrationCore::setSource(PointList points)
+{
+  impl_->source_input = std::move(points);
+  impl_->has_source = true;
+  impl_->source_dirty = true;
+}
+
+std::size_t
+RegistrationCore::droppedTargetPoints() const
+{
+  return impl_->target.non_finite + impl_->target.outliers;
+}
+
+std::size_t
+RegistrationCore::droppedSourcePoints() const
+{
+  return impl_->source.non_finite + impl_->source.outliers;
+}
+
+bool
+RegistrationCore::jointHistogram(const Eigen::Matrix4d& pose,
+                                 JointHistogram& histogram,
+                                 std::string* error)
+{
+  std::string why;
+  if (!impl_->prepare(why)) {
+    if (error)
+      *error = why;
+    return false;
+  }
+  impl_->mutualInformation(pose, histogram);
+  return true;
+}
+
+double
+RegistrationCore::evaluate(const Eigen::Matrix4d& pose, std::string* error)
+{
+  std::string why;
+  if (!impl_->prepare(why)) {
+    if (error)
+      *error = why;
+    return -1.0;
+  }
+  return impl_->mutualInformation(pose, impl_->scratch);
+}
+
+AlignmentResult
+RegistrationCore::align(const Eigen::Matrix4d& guess)
+{
+  AlignmentResult result;
+  result.transformation = guess;
+  if (!guess.allFinite()) {
+    result.error = "the initial guess is not finite";
+    return result;
+  }
+  Impl& d = *impl_;
+  if (!d.prepare(result.error))
+    return result;
+
+  JointHistogram& histogram = d.scratch;
+  if (d.mutualInformation(guess, histogram) <= 0.0 && histogram.overlap_voxels == 0) {
+    result.error = "the bounding boxes of source and target do not overlap at the initial "
+                   "guess";
+    return result;
+  }
+
+  // Only parameters with a non-zero step are searched (a zero step pins one, e.g. for
+  // planar motion).
+  const Parameters& p = d.parameters;
+  std::vector<int> active;
+  for (int i = 0; i < 6; ++i)
+    if (p.simplex_steps[i] != 0.0)
+      active.push_back(i);
+  const Eigen::Index n = static_cast<Eigen::Index>(active.size());
+  const Eigen::Vector3d pivot = (guess * d.source.centroid.homogeneous()).head<3>();
+
+  auto fullParameters = [&](const Eigen::VectorXd& x) {
+    core::Vector6d full = core::Vector6d::Zero();
+    for (Eigen::Index i = 0; i < n; ++i)
+      full[active[i]] = x[i];
+    return full;
+  };
+  auto cost = [&](const Eigen::VectorXd& x) {
+    return -d.mutualInformation(
+        core::transformFromParameters(fullParameters(x), guess, pivot), histogram);
+  };
+
+  Eigen::VectorXd steps(n), tolerance(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    steps[i] = p.simplex_steps[active[i]];
+    tolerance[i] = active[i] < 3 ? p.translation_tolerance : p.rotation_tolerance;
+  }
+
+  core::NelderMeadOptions options;
+  options.tolerance = tolerance;
+  int budget = p.max_iterations;
+  core::NelderMeadResult best;
+  bool have_best = false;
+  auto run = [&](const Eigen::VectorXd& x0, const Eigen::VectorXd& s) {
+    options.max_iterations = budget;
+    core::NelderMeadResult r = core::minimizeNelderMead(cost, x0, s, options);
+    budget -= r.iterations;
+    result.iterations += r.iterations;
+    result.evaluations += r.evaluations;
+    if (!have_best || r.value < best.value) {
+      best = r;
+      have_best = true;
+    }
+    return r;
+  };
+  // The paper's single simplex reaches mostly in the directions of its positive steps; the
+  // mirrored second start makes the search symmetric about the guess, so backward motion is
+  // found as well as forward motion. Restarts around the best vertex, with a smaller
+  // simplex of alternating orientation, then lift the search out of the small local optima
+  // that voxel quantisation scatters near the peak.
+  run(Eigen::VectorXd::Zero(n), steps);
+  if (p.symmetric_start)
+    run(Eigen::VectorXd::Zero(n), -steps);
+  for (int k = 0; k < p.restarts && budget > 0; ++k)
+    run(best.x, (k % 2 ? -p.restart_scale : p.restart_scale) * steps);
+
+  result.converged = best.converged;
+  result.mutual_information = -best.value;
+  result.transformation = core::transformFromParameters(fullParameters(best.x), guess, pivot);
+  return result;
+}
+
+} // namespace pcl_mi
