@@ -48,6 +48,7 @@ Parameters::paper()
 {
   Parameters p;
   p.symmetric_start = false;
+  p.pyramid_levels = 1;
   p.restarts = 0;
   return p;
 }
@@ -72,6 +73,8 @@ Parameters::validate() const
     s << "maximum iterations must be at least 1, got " << max_iterations;
   else if (!(translation_tolerance > 0.0) || !(rotation_tolerance > 0.0))
     s << "tolerances must be positive";
+  else if (pyramid_levels < 1 || pyramid_levels > 8)
+    s << "pyramid levels must be 1..8, got " << pyramid_levels;
   else if (restarts < 0)
     s << "restarts must not be negative, got " << restarts;
   else if (!(restart_scale > 0.0) || !std::isfinite(restart_scale))
@@ -88,8 +91,13 @@ struct RegistrationCore::Impl {
   bool target_dirty = true, source_dirty = true;
   bool has_target = false, has_source = false;
   core::LocalCloud target, source;
-  std::shared_ptr<core::TargetGrid> grid;
-  std::unique_ptr<backend::ScoringBackend> backend = backend::makeCpuBackend();
+  /** One per pyramid level, finest (the parameters' resolution) first. */
+  struct Level {
+    double resolution = 1.0;
+    std::shared_ptr<core::TargetGrid> grid;
+    std::unique_ptr<backend::ScoringBackend> backend;
+  };
+  std::vector<Level> levels;
   JointHistogram scratch;
 
   /** Brings the local clouds, the target grid and the backend up to date. */
@@ -106,24 +114,31 @@ struct RegistrationCore::Impl {
     }
     const double gap = core::kOutlierGapVoxels * parameters.resolution;
     if (target_dirty) {
-      grid.reset();
+      levels.clear();
       target = core::makeLocalCloud(target_input, gap);
       if (target.points.size() < kMinimumPoints) {
         error = describeTooFew("target", target);
         return false;
       }
-      auto new_grid = std::make_shared<core::TargetGrid>();
-      if (!core::buildTargetGrid(target.points,
-                                 parameters.resolution,
-                                 parameters.feature,
-                                 parameters.binning(),
-                                 *new_grid,
-                                 error)) {
-        return false;
+      for (int l = 0; l < parameters.pyramid_levels; ++l) {
+        Level level;
+        level.resolution = parameters.resolution * std::ldexp(1.0, l);
+        level.grid = std::make_shared<core::TargetGrid>();
+        if (!core::buildTargetGrid(target.points,
+                                   level.resolution,
+                                   parameters.feature,
+                                   levelBinning(level.resolution),
+                                   *level.grid,
+                                   error)) {
+          levels.clear();
+          return false;
+        }
+        level.backend = backend::makeCpuBackend();
+        level.backend->setTarget(level.grid);
+        levels.push_back(std::move(level));
       }
-      grid = new_grid;
-      backend->setTarget(grid);
       target_dirty = false;
+      source_dirty = true; // the new backends have no source yet
     }
     if (source_dirty) {
       source = core::makeLocalCloud(source_input, gap);
@@ -131,10 +146,26 @@ struct RegistrationCore::Impl {
         error = describeTooFew("source", source);
         return false;
       }
-      backend->setSource(std::make_shared<const PointList>(source.points));
+      const auto shared = std::make_shared<const PointList>(source.points);
+      for (Level& level : levels)
+        level.backend->setSource(shared);
       source_dirty = false;
     }
     return true;
+  }
+
+  /** Binning at a pyramid level. Point counts grow with the voxel's surface area, so the
+   * PointCount range scales with the square of the resolution ratio; VarianceZ is already
+   * normalised by the resolution. */
+  FeatureBinning
+  levelBinning(double level_resolution) const
+  {
+    FeatureBinning b = parameters.binning();
+    if (parameters.feature == Feature::PointCount) {
+      const double ratio = level_resolution / parameters.resolution;
+      b.max_value *= ratio * ratio;
+    }
+    return b;
   }
 
   static std::string
@@ -147,9 +178,10 @@ struct RegistrationCore::Impl {
     return s.str();
   }
 
-  /** MI at a source-to-target transformation in the input frames. */
+  /** MI at a source-to-target transformation in the input frames, on pyramid level
+   * \a level (0 = finest). */
   double
-  mutualInformation(const Eigen::Matrix4d& pose, JointHistogram& histogram)
+  mutualInformation(const Eigen::Matrix4d& pose, JointHistogram& histogram, int level = 0)
   {
     // Into the local frames: target_local = R * source_local + R c_s + t - c_t.
     const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
@@ -159,7 +191,7 @@ struct RegistrationCore::Impl {
       histogram.overlap_voxels = 0;
       return 0.0;
     }
-    backend->jointHistogram(r.cast<float>(), t.cast<float>(), histogram);
+    levels[level].backend->jointHistogram(r.cast<float>(), t.cast<float>(), histogram);
     return histogram.overlap_voxels == 0 ? 0.0 : core::mutualInformation(histogram);
   }
 };
@@ -178,6 +210,7 @@ RegistrationCore::setParameters(const Parameters& parameters)
     return error;
   const Parameters& old = impl_->parameters;
   const bool grid_changed = old.resolution != parameters.resolution ||
+                            old.pyramid_levels != parameters.pyramid_levels ||
                             old.feature != parameters.feature ||
                             old.binning().num_bins != parameters.binning().num_bins ||
                             old.binning().max_value != parameters.binning().max_value;
@@ -287,9 +320,10 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
       full[active[i]] = x[i];
     return full;
   };
+  int level = static_cast<int>(d.levels.size()) - 1; // coarsest first
   auto cost = [&](const Eigen::VectorXd& x) {
     return -d.mutualInformation(
-        core::transformFromParameters(fullParameters(x), guess, pivot), histogram);
+        core::transformFromParameters(fullParameters(x), guess, pivot), histogram, level);
   };
 
   Eigen::VectorXd steps(n), tolerance(n);
@@ -304,7 +338,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   core::NelderMeadResult best;
   bool have_best = false;
   auto run = [&](const Eigen::VectorXd& x0, const Eigen::VectorXd& s) {
-    options.max_iterations = budget;
+    options.max_iterations = std::max(budget, 0);
     core::NelderMeadResult r = core::minimizeNelderMead(cost, x0, s, options);
     budget -= r.iterations;
     result.iterations += r.iterations;
@@ -313,18 +347,26 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
       best = r;
       have_best = true;
     }
-    return r;
   };
-  // The paper's single simplex reaches mostly in the directions of its positive steps; the
-  // mirrored second start makes the search symmetric about the guess, so backward motion is
-  // found as well as forward motion. Restarts around the best vertex, with a smaller
-  // simplex of alternating orientation, then lift the search out of the small local optima
-  // that voxel quantisation scatters near the peak.
+
+  // Coarsest level first: the paper's simplex from the guess. Its simplex reaches mostly
+  // along the positive steps, so the mirrored start (all steps negated) makes the search
+  // symmetric about the guess: backward motion is found as well as forward motion.
   run(Eigen::VectorXd::Zero(n), steps);
   if (p.symmetric_start)
     run(Eigen::VectorXd::Zero(n), -steps);
+  // Each finer level refines the coarser optimum with a smaller simplex; the costs of two
+  // levels are not comparable, so each level keeps its own best.
+  while (level > 0) {
+    --level;
+    const Eigen::VectorXd x = best.x;
+    have_best = false;
+    run(x, p.restart_scale * steps);
+  }
+  // Restarts around the best vertex, with a smaller simplex of alternating orientation, lift
+  // the search out of the small local optima that voxel quantisation scatters near the peak.
   for (int k = 0; k < p.restarts && budget > 0; ++k)
-    run(best.x, (k % 2 ? -p.restart_scale : p.restart_scale) * steps);
+    run(best.x, (k % 2 ? p.restart_scale : -p.restart_scale) * steps);
 
   result.converged = best.converged;
   result.mutual_information = -best.value;

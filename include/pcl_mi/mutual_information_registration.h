@@ -212,6 +212,8 @@ protected:
   using Base::nr_iterations_;
   using Base::previous_transformation_;
   using Base::reg_name_;
+  using Base::source_cloud_updated_;
+  using Base::target_cloud_updated_;
   using Base::target_;
   using Base::transformation_;
 

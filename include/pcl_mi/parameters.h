@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include <ostream>
 #include <string>
 
 namespace pcl_mi {
@@ -19,6 +20,13 @@ enum class Feature {
 /** \brief Human-readable name of a feature ("VarianceZ", "PointCount"). */
 const char*
 featureName(Feature feature);
+
+/** \brief Prints the feature's name (for logs and test output). */
+inline std::ostream&
+operator<<(std::ostream& os, Feature feature)
+{
+  return os << featureName(feature);
+}
 
 /** \brief How the value of an occupied voxel maps to a histogram bin.
  *
@@ -62,10 +70,14 @@ struct Parameters {
    * paper's simplex explores mainly along its positive steps and misses large motion in
    * the opposite direction (e.g. aligning an earlier scan onto a later one). */
   bool symmetric_start = true;
+  /** Levels of the coarse-to-fine voxel pyramid. Level l uses resolution * 2^l; the search
+   * starts on the coarsest level, whose smoother cost has a wider basin, and refines the
+   * optimum on each finer level. 1 = the paper's single resolution. */
+  int pyramid_levels = 2;
   /** Number of restarts around the best vertex after the first search(es), each with the
    * initial steps scaled by restart_scale and alternating in sign. */
   int restarts = 2;
-  /** Scale of the restart simplices relative to simplex_steps. */
+  /** Scale of the restart and level-refinement simplices relative to simplex_steps. */
   double restart_scale = 0.25;
   /** Maximum number of Nelder-Mead iterations, summed over all starts and restarts. */
   int max_iterations = 1000;

@@ -27,7 +27,16 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setInputSource(
     const PointCloudSourceConstPtr& cloud)
 {
-  Base::setInputSource(cloud);
+  // PCL's base class dereferences a null cloud and ignores an empty one, so that align()
+  // would silently reuse the previous source. Keep it instead; align() then says why it
+  // cannot run.
+  if (!cloud || cloud->empty()) {
+    PCLBase<PointSource>::setInputCloud(cloud);
+    source_cloud_updated_ = true;
+  }
+  else {
+    Base::setInputSource(cloud);
+  }
   converged_ = false;
 }
 
@@ -36,7 +45,13 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setInputTarget(
     const PointCloudTargetConstPtr& cloud)
 {
-  Base::setInputTarget(cloud);
+  if (!cloud || cloud->empty()) { // see setInputSource()
+    target_ = cloud;
+    target_cloud_updated_ = true;
+  }
+  else {
+    Base::setInputTarget(cloud);
+  }
   converged_ = false;
   pcl_mi::PointList points;
   if (cloud) {

@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Installs the built project into a scratch prefix, configures and builds the consumer
+# project against it, and runs it on the bundled KITTI pair.
+# Usage: run_consumer_test.sh BUILD_DIR SOURCE_DIR WORK_DIR
+set -euo pipefail
+build_dir=$1 source_dir=$2 work_dir=$3
+rm -rf "$work_dir"
+cmake --install "$build_dir" --prefix "$work_dir/install" > "$work_dir.install.log" 2>&1 ||
+  { cat "$work_dir.install.log"; exit 1; }
+cmake -S "$source_dir/test/consumer" -B "$work_dir/build" \
+  -DCMAKE_PREFIX_PATH="$work_dir/install" -DCMAKE_BUILD_TYPE=Release
+cmake --build "$work_dir/build"
+data="$source_dir/data/kitti"
+"$work_dir/build/consumer" "$data/sequences/00/velodyne/000009.bin" \
+  "$data/sequences/00/velodyne/000000.bin" "$data/reference_00_000009_to_000000.txt"

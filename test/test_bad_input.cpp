@@ -1,0 +1,234 @@
+/*
+ * Bad input gets a clear error (PCL_ERROR, getLastError()), hasConverged() == false, no
+ * exception and no crash; input that can be cleaned (NaN points, a far outlier) aligns.
+ */
+#include "test_data.h"
+
+#include <pcl_mi/mutual_information_registration.h>
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using Registration = pcl::MutualInformationRegistration<pcl::PointXYZ>;
+
+namespace {
+
+Cloud::Ptr
+cloudOf(std::initializer_list<Eigen::Vector3f> points)
+{
+  auto cloud = pcl::make_shared<Cloud>();
+  for (const auto& p : points)
+    cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  return cloud;
+}
+
+/** Runs align() expecting a failure whose message contains \a reason. */
+void
+expectFailure(Registration& reg, const std::string& reason, const Eigen::Matrix4f& guess =
+                                                              Eigen::Matrix4f::Identity())
+{
+  Cloud output;
+  EXPECT_NO_THROW(reg.align(output, guess));
+  EXPECT_FALSE(reg.hasConverged());
+  EXPECT_NE(reg.getLastError().find(reason), std::string::npos)
+      << "error was: '" << reg.getLastError() << "'";
+  EXPECT_TRUE(reg.getFinalTransformation().isApprox(guess));
+}
+
+class BadInput : public ::testing::Test {
+protected:
+  static void
+  SetUpTestSuite()
+  {
+    source_ = test_data::loadScan("00", 9);
+    target_ = test_data::loadScan("00", 0);
+    reference_ = test_data::referenceTransform("00", 0, 9);
+  }
+  static Cloud::Ptr source_, target_;
+  static Eigen::Matrix4d reference_;
+};
+Cloud::Ptr BadInput::source_, BadInput::target_;
+Eigen::Matrix4d BadInput::reference_;
+
+} // namespace
+
+TEST_F(BadInput, EmptySource)
+{
+  Registration reg;
+  reg.setInputSource(pcl::make_shared<Cloud>());
+  reg.setInputTarget(target_);
+  expectFailure(reg, "source has 0 usable points");
+}
+
+TEST_F(BadInput, EmptyTarget)
+{
+  Registration reg;
+  reg.setInputSource(source_);
+  reg.setInputTarget(pcl::make_shared<Cloud>());
+  expectFailure(reg, "target has 0 usable points");
+}
+
+TEST_F(BadInput, NoTargetGiven)
+{
+  Registration reg;
+  reg.setInputSource(source_);
+  Cloud output;
+  EXPECT_NO_THROW(reg.align(output)); // PCL's base class reports the missing target
+  EXPECT_FALSE(reg.hasConverged());
+}
+
+TEST_F(BadInput, SinglePoint)
+{
+  Registration reg;
+  reg.setInputSource(cloudOf({{1, 2, 3}}));
+  reg.setInputTarget(target_);
+  expectFailure(reg, "source has 1 usable points");
+}
+
+TEST_F(BadInput, NanOnlyCloud)
+{
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  Registration reg;
+  reg.setInputSource(source_);
+  reg.setInputTarget(cloudOf({{nan, 0, 0}, {0, nan, 0}, {nan, nan, nan}, {0, 0, nan}}));
+  expectFailure(reg, "4 non-finite");
+}
+
+TEST_F(BadInput, NanAndInfPointsAreSkipped)
+{
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  auto source = pcl::make_shared<Cloud>(*source_);
+  auto target = pcl::make_shared<Cloud>(*target_);
+  for (int i = 0; i < 1000; ++i) {
+    source->push_back(pcl::PointXYZ(i % 2 ? nan : inf, 0, 0));
+    target->push_back(pcl::PointXYZ(0, -inf, i % 3 ? nan : 1.0f));
+  }
+  source->is_dense = target->is_dense = false;
+  Registration reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud output;
+  EXPECT_NO_THROW(reg.align(output));
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference_);
+  EXPECT_EQ(reg.core().droppedSourcePoints(), 1000u);
+  EXPECT_EQ(reg.core().droppedTargetPoints(), 1000u);
+}
+
+TEST_F(BadInput, NoOverlapAtTheGuess)
+{
+  Registration reg;
+  reg.setInputSource(source_);
+  reg.setInputTarget(target_);
+  Eigen::Matrix4f far = Eigen::Matrix4f::Identity();
+  far(0, 3) = 5000.0f;
+  expectFailure(reg, "do not overlap", far);
+}
+
+TEST_F(BadInput, NonFiniteGuess)
+{
+  Registration reg;
+  reg.setInputSource(source_);
+  reg.setInputTarget(target_);
+  Eigen::Matrix4f guess = Eigen::Matrix4f::Identity();
+  guess(1, 3) = std::numeric_limits<float>::quiet_NaN();
+  Cloud output;
+  EXPECT_NO_THROW(reg.align(output, guess));
+  EXPECT_FALSE(reg.hasConverged());
+  EXPECT_NE(reg.getLastError().find("not finite"), std::string::npos);
+}
+
+TEST_F(BadInput, FarOutlierIsDroppedAndMemoryStaysBounded)
+{
+  // One point 1e5 m away would stretch a dense 1 m grid over 1e5 x 80 x 10 voxels (80 GB
+  // of accumulators). It is dropped as an outlier and the pair still aligns.
+  auto source = pcl::make_shared<Cloud>(*source_);
+  auto target = pcl::make_shared<Cloud>(*target_);
+  source->push_back(pcl::PointXYZ(1e5f, 0, 0));
+  target->push_back(pcl::PointXYZ(0, -1e5f, 3));
+  Registration reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud output;
+  reg.align(output);
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference_);
+  EXPECT_EQ(reg.core().droppedSourcePoints(), 1u);
+  EXPECT_EQ(reg.core().droppedTargetPoints(), 1u);
+}
+
+TEST_F(BadInput, ExtentTooLargeForTheGridIsRefused)
+{
+  // A gap-free lattice 300 m x 300 m x 20 m at 0.1 m voxels needs 1.8e9 cells: the grid is
+  // refused with a reason instead of allocating without bound.
+  auto lattice = pcl::make_shared<Cloud>();
+  for (int i = 0; i <= 60; ++i)
+    for (int j = 0; j <= 60; ++j)
+      for (int k = 0; k <= 4; ++k)
+        lattice->push_back(pcl::PointXYZ(5.0f * i, 5.0f * j, 5.0f * k));
+  Registration reg;
+  reg.setResolution(0.1);
+  reg.setInputSource(lattice);
+  reg.setInputTarget(lattice);
+  expectFailure(reg, "coarser resolution");
+}
+
+TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
+{
+  Registration reg;
+  reg.setResolution(0.0);
+  EXPECT_EQ(reg.getResolution(), 1.0);
+  reg.setResolution(-2.0);
+  EXPECT_EQ(reg.getResolution(), 1.0);
+  reg.setResolution(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(reg.getResolution(), 1.0);
+  reg.setResolution(0.5);
+  EXPECT_EQ(reg.getResolution(), 0.5);
+
+  reg.setFeatureBinning(pcl_mi::Feature::VarianceZ, 0, 0.1);
+  EXPECT_EQ(reg.getFeatureBinning(pcl_mi::Feature::VarianceZ).num_bins, 16);
+  reg.setFeatureBinning(pcl_mi::Feature::PointCount, -3, 10);
+  EXPECT_EQ(reg.getFeatureBinning(pcl_mi::Feature::PointCount).num_bins, 16);
+  reg.setFeatureBinning(pcl_mi::Feature::PointCount, 8, 0.0);
+  EXPECT_EQ(reg.getFeatureBinning(pcl_mi::Feature::PointCount).max_value, 64.0);
+  reg.setFeatureBinning(pcl_mi::Feature::PointCount, 256, 10.0); // bins must fit a byte
+  EXPECT_EQ(reg.getFeatureBinning(pcl_mi::Feature::PointCount).num_bins, 16);
+
+  reg.setSimplexSteps(Eigen::Matrix<double, 6, 1>::Zero());
+  EXPECT_EQ(reg.getSimplexSteps()[0], 8.0);
+  reg.setTranslationTolerance(0.0);
+  EXPECT_EQ(reg.getTranslationTolerance(), 0.005);
+  reg.setNumberOfRestarts(-1);
+  EXPECT_EQ(reg.getNumberOfRestarts(), 2);
+
+  pcl_mi::Parameters bad;
+  bad.max_iterations = 0;
+  EXPECT_FALSE(reg.setParameters(bad));
+  EXPECT_EQ(reg.getParameters().max_iterations, 1000);
+}
+
+TEST_F(BadInput, BaseClassIterationCapZeroIsReported)
+{
+  // setMaximumIterations() is the base class's and cannot refuse; align() reports it.
+  Registration reg;
+  reg.setInputSource(source_);
+  reg.setInputTarget(target_);
+  reg.setMaximumIterations(0);
+  expectFailure(reg, "invalid parameters");
+}
+
+TEST_F(BadInput, IterationCapIsNotConvergence)
+{
+  Registration reg;
+  reg.setInputSource(source_);
+  reg.setInputTarget(target_);
+  reg.setMaximumIterations(5);
+  Cloud output;
+  reg.align(output);
+  EXPECT_FALSE(reg.hasConverged());
+  EXPECT_TRUE(reg.getLastError().empty());
+  EXPECT_LE(reg.getFinalNumIteration(), 5);
+}

@@ -1,0 +1,74 @@
+/*
+ * Access to the bundled KITTI sample (data/kitti) for the tests. The path comes from the
+ * PCL_MI_DATA_DIR compile definition, not from the working directory.
+ */
+#pragma once
+
+#include <pcl_mi/io.h>
+#include <pcl_mi/kitti.h>
+
+#include <pcl/common/io.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Geometry>
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace test_data {
+
+inline std::string
+kittiRoot()
+{
+  return std::string(PCL_MI_DATA_DIR) + "/kitti";
+}
+
+inline pcl::PointCloud<pcl::PointXYZ>::Ptr
+loadScan(const std::string& sequence, int frame)
+{
+  pcl::PointCloud<pcl::PointXYZI> xyzi;
+  const std::string error =
+      pcl_mi::io::loadCloud(pcl_mi::kitti::scanPath(kittiRoot(), sequence, frame), xyzi);
+  EXPECT_EQ(error, "");
+  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  pcl::copyPointCloud(xyzi, *cloud);
+  return cloud;
+}
+
+/** Reference transform mapping scan \a source_frame into scan \a target_frame, from the
+ * bundled SemanticKITTI poses. */
+inline Eigen::Matrix4d
+referenceTransform(const std::string& sequence, int target_frame, int source_frame)
+{
+  Eigen::Matrix4d tr;
+  std::vector<Eigen::Matrix4d> poses;
+  const std::string dir = kittiRoot() + "/sequences/" + sequence;
+  EXPECT_EQ(pcl_mi::kitti::loadCalibrationTr(dir + "/calib.txt", tr), "");
+  EXPECT_EQ(pcl_mi::kitti::loadPoses(dir + "/poses.txt", poses), "");
+  return pcl_mi::kitti::relativeVelodyneTransform(tr, poses.at(target_frame),
+                                                  poses.at(source_frame));
+}
+
+/** Rigid transformation: translation (x, y, z) then yaw in degrees. */
+inline Eigen::Matrix4d
+planarMotion(double x, double y, double yaw_deg)
+{
+  return (Eigen::Translation3d(x, y, 0.0) *
+          Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()))
+      .matrix();
+}
+
+/** The acceptance bound of the registration tests. */
+constexpr double kMaxTranslationError = 0.15; // m
+constexpr double kMaxRotationErrorDeg = 0.5;
+
+#define EXPECT_POSE_NEAR(estimate, reference)                                              \
+  do {                                                                                     \
+    const auto pose_error_ = pcl_mi::io::poseError((estimate), (reference));               \
+    EXPECT_LT(pose_error_.translation, test_data::kMaxTranslationError);                   \
+    EXPECT_LT(pose_error_.rotation_deg, test_data::kMaxRotationErrorDeg);                  \
+  } while (0)
+
+} // namespace test_data

@@ -1,0 +1,181 @@
+/*
+ * Feature values and bins on hand-built voxels; the target grid and the CPU backend's
+ * joint histogram on hand-built clouds.
+ */
+#include "backend/scoring_backend.h"
+#include "core/feature_binning.h"
+#include "core/voxel_grid.h"
+
+#include <gtest/gtest.h>
+
+using namespace pcl_mi;
+using namespace pcl_mi::core;
+
+namespace {
+
+VoxelMoments
+momentsOf(std::initializer_list<int> heights)
+{
+  VoxelMoments m;
+  for (int q : heights)
+    m.add(q);
+  return m;
+}
+
+} // namespace
+
+TEST(FeatureBinning, EmptyVoxelIsBinZero)
+{
+  const FeatureBinning b{16, 1.0 / 12.0};
+  EXPECT_EQ(voxelBin(Feature::VarianceZ, b, VoxelMoments{}), 0);
+  EXPECT_EQ(voxelBin(Feature::PointCount, FeatureBinning{16, 64}, VoxelMoments{}), 0);
+}
+
+TEST(FeatureBinning, VarianceZHandComputed)
+{
+  const FeatureBinning b{16, 1.0 / 12.0};
+  // One point, or points at one height: zero variance, first occupied bin.
+  EXPECT_DOUBLE_EQ(featureValue(Feature::VarianceZ, momentsOf({77})), 0.0);
+  EXPECT_EQ(voxelBin(Feature::VarianceZ, b, momentsOf({77})), 1);
+  EXPECT_EQ(voxelBin(Feature::VarianceZ, b, momentsOf({5, 5, 5})), 1);
+  // Heights 0 and 128 (of 256 levels): var = 64^2 / 256^2 = 1/16 of R_v^2;
+  // bin = 1 + floor(16 * (1/16) / (1/12)) = 1 + 12 = 13.
+  EXPECT_DOUBLE_EQ(featureValue(Feature::VarianceZ, momentsOf({0, 128})), 1.0 / 16.0);
+  EXPECT_EQ(voxelBin(Feature::VarianceZ, b, momentsOf({0, 128})), 13);
+  // Heights 0 and 255: var just under 1/4 >= max: clamped into the last bin.
+  EXPECT_EQ(voxelBin(Feature::VarianceZ, b, momentsOf({0, 255})), 16);
+  // Heights 0, 0, 0, 64: mean 16, var = (3 * 16^2 + 48^2) / 4 = 768 -> 768 / 65536.
+  EXPECT_DOUBLE_EQ(featureValue(Feature::VarianceZ, momentsOf({0, 0, 0, 64})),
+                   768.0 / 65536.0);
+  // 16 * (768 / 65536) * 12 = 2.25 -> bin 3.
+  EXPECT_EQ(voxelBin(Feature::VarianceZ, b, momentsOf({0, 0, 0, 64})), 3);
+}
+
+TEST(FeatureBinning, PointCountHandComputed)
+{
+  const FeatureBinning b{16, 64.0};
+  EXPECT_DOUBLE_EQ(featureValue(Feature::PointCount, momentsOf({1, 2, 3})), 3.0);
+  EXPECT_EQ(voxelBin(Feature::PointCount, b, momentsOf({1, 2, 3})), 1);    // 0.75
+  EXPECT_EQ(voxelBin(Feature::PointCount, b, momentsOf({1, 2, 3, 4})), 2); // 1.0
+  VoxelMoments many;
+  for (int i = 0; i < 1000; ++i)
+    many.add(0);
+  EXPECT_EQ(voxelBin(Feature::PointCount, b, many), 16);
+}
+
+TEST(FeatureBinning, QuantisedHeightStaysInVoxel)
+{
+  EXPECT_EQ(quantiseHeight(3.0f, 3), 0);
+  EXPECT_EQ(quantiseHeight(3.5f, 3), 128);
+  EXPECT_EQ(quantiseHeight(3.9999999f, 3), 255);
+  EXPECT_EQ(quantiseHeight(4.0f, 3), 255); // rounding at the upper face
+}
+
+TEST(LocalCloud, DropsNonFiniteAndFarOutliers)
+{
+  PointList points;
+  for (int i = 0; i < 100; ++i)
+    points.emplace_back(0.1f * i, 0.05f * i, 0.0f);
+  points.emplace_back(std::nanf(""), 0.0f, 0.0f);
+  points.emplace_back(0.0f, std::numeric_limits<float>::infinity(), 0.0f);
+  points.emplace_back(1e5f, 0.0f, 0.0f);
+  const LocalCloud cloud = makeLocalCloud(points, 64.0);
+  EXPECT_EQ(cloud.non_finite, 2u);
+  EXPECT_EQ(cloud.outliers, 1u);
+  ASSERT_EQ(cloud.points.size(), 100u);
+  EXPECT_NEAR(cloud.centroid.x(), 0.1 * 49.5, 1e-5);
+  EXPECT_NEAR(cloud.centroid.y(), 0.05 * 49.5, 1e-5);
+}
+
+TEST(LocalCloud, KeepsFarOffsetPrecision)
+{
+  // Coordinates near 1e6 m: the local frame keeps their relative layout exact in float.
+  PointList points;
+  for (int i = 0; i < 10; ++i)
+    points.emplace_back(1e6f + 0.125f * i, 2e6f, 3.0f);
+  const LocalCloud cloud = makeLocalCloud(points, 64.0);
+  ASSERT_EQ(cloud.points.size(), 10u);
+  EXPECT_FLOAT_EQ(cloud.points[9].x() - cloud.points[0].x(), 1.125f);
+}
+
+TEST(TargetGrid, HandBuiltVoxels)
+{
+  // Three points in voxel (0,0,0), one in voxel (2,1,0): grid spans 3 x 2 x 1 voxels.
+  PointList points{{0.1f, 0.1f, 0.0f}, {0.2f, 0.2f, 0.5f}, {0.3f, 0.3f, 0.25f},
+                   {2.5f, 1.5f, 0.5f}};
+  TargetGrid grid;
+  std::string error;
+  ASSERT_TRUE(buildTargetGrid(points, 1.0, Feature::PointCount, {16, 16.0}, grid, error))
+      << error;
+  EXPECT_EQ(grid.geometry.dims, Eigen::Vector3i(3, 2, 1));
+  ASSERT_EQ(grid.occupied.size(), 2u);
+  // PointCount 3 -> 1 + floor(16 * 3 / 16) = 4; 1 -> 2.
+  EXPECT_EQ(grid.bins[grid.geometry.cellIndex(0, 0, 0)], 4);
+  EXPECT_EQ(grid.bins[grid.geometry.cellIndex(2, 1, 0)], 2);
+  EXPECT_EQ(grid.bins[grid.geometry.cellIndex(1, 0, 0)], 0);
+}
+
+TEST(TargetGrid, RefusesGridsBeyondTheCap)
+{
+  PointList points{{0.0f, 0.0f, 0.0f}, {4000.0f, 4000.0f, 2000.0f}};
+  TargetGrid grid;
+  std::string error;
+  EXPECT_FALSE(buildTargetGrid(points, 1.0, Feature::VarianceZ, {16, 1.0 / 12}, grid, error));
+  EXPECT_NE(error.find("voxels"), std::string::npos);
+}
+
+TEST(CpuBackend, JointHistogramOfIdenticalAndShiftedClouds)
+{
+  // Target: a 4 x 1 x 1 row of voxels holding 1, 2, 3 and 4 points.
+  PointList target;
+  for (int v = 0; v < 4; ++v)
+    for (int k = 0; k <= v; ++k)
+      target.emplace_back(v + 0.5f, 0.5f, 0.1f + 0.2f * k);
+  auto grid = std::make_shared<TargetGrid>();
+  std::string error;
+  ASSERT_TRUE(buildTargetGrid(target, 1.0, Feature::PointCount, {4, 5.0}, *grid, error));
+  auto backend = backend::makeCpuBackend();
+  backend->setTarget(grid);
+  backend->setSource(std::make_shared<const PointList>(target));
+
+  // Identity: every voxel agrees, histogram is diagonal with one count per bin 1..4.
+  JointHistogram h;
+  backend->jointHistogram(Eigen::Matrix3f::Identity(), Eigen::Vector3f::Zero(), h);
+  EXPECT_EQ(h.num_bins, 5);
+  EXPECT_EQ(h.overlap_voxels, 4u);
+  for (int b = 1; b <= 4; ++b)
+    EXPECT_EQ(h.at(b, b), 1u) << b;
+  EXPECT_EQ(h.at(0, 0), 0u);
+
+  // Shift the source by +1 voxel in x: overlap is voxels 1..3 (the source box starts at 1),
+  // target bins 2, 3, 4 meet source bins 1, 2, 3.
+  backend->jointHistogram(Eigen::Matrix3f::Identity(), Eigen::Vector3f(1, 0, 0), h);
+  EXPECT_EQ(h.overlap_voxels, 3u);
+  EXPECT_EQ(h.at(2, 1), 1u);
+  EXPECT_EQ(h.at(3, 2), 1u);
+  EXPECT_EQ(h.at(4, 3), 1u);
+
+  // Far away: no overlap.
+  backend->jointHistogram(Eigen::Matrix3f::Identity(), Eigen::Vector3f(100, 0, 0), h);
+  EXPECT_EQ(h.overlap_voxels, 0u);
+}
+
+TEST(CpuBackend, EmptyVoxelsInsideTheOverlapAreCounted)
+{
+  // Target occupies voxels (0,0,0) and (3,0,0); the overlap spans 4 voxels, two of which
+  // are empty in both clouds and must land in bin (0, 0).
+  PointList target{{0.5f, 0.5f, 0.5f}, {3.5f, 0.5f, 0.5f}};
+  auto grid = std::make_shared<TargetGrid>();
+  std::string error;
+  ASSERT_TRUE(buildTargetGrid(target, 1.0, Feature::PointCount, {1, 1.0}, *grid, error));
+  auto backend = backend::makeCpuBackend();
+  backend->setTarget(grid);
+  PointList source{{0.5f, 0.5f, 0.5f}, {2.5f, 0.5f, 0.5f}, {3.5f, 0.5f, 0.5f}};
+  backend->setSource(std::make_shared<const PointList>(source));
+  JointHistogram h;
+  backend->jointHistogram(Eigen::Matrix3f::Identity(), Eigen::Vector3f::Zero(), h);
+  EXPECT_EQ(h.overlap_voxels, 4u);
+  EXPECT_EQ(h.at(1, 1), 2u); // voxels 0 and 3
+  EXPECT_EQ(h.at(0, 1), 1u); // voxel 2: source only
+  EXPECT_EQ(h.at(0, 0), 1u); // voxel 1: empty in both
+}
