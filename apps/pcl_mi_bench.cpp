@@ -25,6 +25,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 using pcl::console::print_error;
@@ -161,7 +162,7 @@ main(int argc, char** argv)
         "  -poses semantic|gt    sequences/SS/poses.txt or poses/SS.txt (default semantic)\n"
         "  -distance MIN,MAX     pair translation range in m (default 1,10)\n"
         "  -max_yaw DEG          largest |yaw| of a pair (default 20)\n"
-        "  -pairs i:j,i:j        only these frame pairs (target i, source j)\n"
+        "  -pairs SS:i:j,...     only these pairs (sequence SS, frames i < j)\n"
         "  -stride K             every K-th pair only (default 1)\n"
         "  -directions both|forward|backward   (default both)\n"
         "  -perturb T,YAW        guess = reference perturbed by T m (random horizontal\n"
@@ -204,14 +205,14 @@ main(int argc, char** argv)
     print_error("pcl_mi_bench: bad arguments (see -h)\n");
     return 1;
   }
-  std::map<std::pair<int, int>, bool> wanted_pairs;
+  std::map<std::tuple<std::string, int, int>, bool> wanted_pairs;
   for (const auto& p : split(pairs_arg, ',')) {
-    const auto ij = split(p, ':');
-    if (ij.size() != 2) {
-      print_error("pcl_mi_bench: -pairs takes i:j items\n");
+    const auto sij = split(p, ':');
+    if (sij.size() != 3) {
+      print_error("pcl_mi_bench: -pairs takes SS:i:j items\n");
       return 1;
     }
-    wanted_pairs[{std::stoi(ij[0]), std::stoi(ij[1])}] = true;
+    wanted_pairs[{sij[0], std::stoi(sij[1]), std::stoi(sij[2])}] = true;
   }
 
   std::mt19937 rng(seed);
@@ -238,7 +239,7 @@ main(int argc, char** argv)
         const Eigen::Matrix4d t_ij =
             pcl_mi::kitti::relativeVelodyneTransform(tr, poses[i], poses[j]);
         const double dist = t_ij.topRightCorner<3, 1>().norm();
-        if (!wanted_pairs.empty() ? !wanted_pairs.count({i, j})
+        if (!wanted_pairs.empty() ? !wanted_pairs.count({seq, i, j})
                                   : (dist < distance[0] || dist >= distance[1] ||
                                      std::abs(yawDegrees(t_ij)) > max_yaw))
           continue;
