@@ -195,3 +195,26 @@ TEST(Registration, PlanarSearchKeepsPinnedParameters)
 }
 
 } // namespace
+
+namespace {
+
+TEST(Registration, OtherPointTypesCompileFromTheHeader)
+{
+  // pcl::PointXYZRGB is not precompiled into the library: the header's template bodies
+  // instantiate it here.
+  using ColourCloud = pcl::PointCloud<pcl::PointXYZRGB>;
+  auto source = pcl::make_shared<ColourCloud>();
+  auto target = pcl::make_shared<ColourCloud>();
+  pcl::copyPointCloud(*test_data::loadScan("02", 6), *source);
+  pcl::copyPointCloud(*test_data::loadScan("02", 0), *target);
+  pcl::MutualInformationRegistration<pcl::PointXYZRGB> reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  ColourCloud aligned;
+  reg.align(aligned);
+  EXPECT_TRUE(reg.hasConverged());
+  EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
+                   test_data::referenceTransform("02", 0, 6));
+}
+
+} // namespace
