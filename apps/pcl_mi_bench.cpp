@@ -65,6 +65,11 @@ yawDegrees(const Eigen::Matrix4d& t)
   return std::atan2(t(1, 0), t(0, 0)) * 180.0 / M_PI;
 }
 
+/** Overrides of the MI defaults from the command line (negative: keep the default). */
+struct MiOverrides {
+  int subdivision = -1, levels = -1, restarts = -1;
+} mi_overrides;
+
 /** Settings that use no knowledge of the true pose; see the README's comparison notes. */
 std::unique_ptr<pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>>
 makeMethod(const std::string& name)
@@ -77,7 +82,14 @@ makeMethod(const std::string& name)
       return nullptr;
     pcl_mi::Parameters p = paper ? pcl_mi::Parameters::paper() : pcl_mi::Parameters();
     p.feature = feature == "n" ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
-    mi->setParameters(p);
+    if (mi_overrides.subdivision >= 0)
+      p.source_subdivision = mi_overrides.subdivision;
+    if (mi_overrides.levels >= 0)
+      p.pyramid_levels = mi_overrides.levels;
+    if (mi_overrides.restarts >= 0)
+      p.restarts = mi_overrides.restarts;
+    if (!mi->setParameters(p))
+      return nullptr;
     return mi;
   }
   if (name == "gicp")
@@ -171,7 +183,8 @@ main(int argc, char** argv)
         "  -methods LIST         from mi-varz,mi-n,mi-varz-paper,mi-n-paper,gicp,ndt\n"
         "                        (default mi-varz,gicp,ndt)\n"
         "  -success T,R          success bound in m and deg (default 0.5,2)\n"
-        "  -csv FILE             one row per pair and method\n",
+        "  -csv FILE             one row per pair and method\n"
+        "  -subdivision N, -levels N, -restarts N   override MI parameters\n",
         argv[0]);
     return argc < 2 ? 1 : 0;
   }
@@ -191,6 +204,9 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-stride", stride);
   pcl::console::parse_argument(argc, argv, "-seed", seed);
   pcl::console::parse_argument(argc, argv, "-max_yaw", max_yaw);
+  pcl::console::parse_argument(argc, argv, "-subdivision", mi_overrides.subdivision);
+  pcl::console::parse_argument(argc, argv, "-levels", mi_overrides.levels);
+  pcl::console::parse_argument(argc, argv, "-restarts", mi_overrides.restarts);
   pcl::console::parse_x_arguments(argc, argv, "-distance", distance);
   pcl::console::parse_x_arguments(argc, argv, "-perturb", perturb);
   pcl::console::parse_x_arguments(argc, argv, "-success", success);

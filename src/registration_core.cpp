@@ -12,6 +12,8 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <exception>
+#include <thread>
 #include <sstream>
 
 namespace pcl_mi {
@@ -49,6 +51,7 @@ Parameters::paper()
   Parameters p;
   p.symmetric_start = false;
   p.pyramid_levels = 1;
+  p.source_subdivision = 0;
   p.restarts = 0;
   return p;
 }
@@ -73,6 +76,10 @@ Parameters::validate() const
     s << "maximum iterations must be at least 1, got " << max_iterations;
   else if (!(translation_tolerance > 0.0) || !(rotation_tolerance > 0.0))
     s << "tolerances must be positive";
+  else if (source_subdivision < 0 || source_subdivision > 64)
+    s << "source subdivision must be 0..64, got " << source_subdivision;
+  else if (num_threads < 1)
+    s << "number of threads must be at least 1, got " << num_threads;
   else if (pyramid_levels < 1 || pyramid_levels > 8)
     s << "pyramid levels must be 1..8, got " << pyramid_levels;
   else if (restarts < 0)
@@ -81,6 +88,9 @@ Parameters::validate() const
     s << "restart scale must be positive and finite, got " << restart_scale;
   return s.str();
 }
+
+/** Tolerance of pyramid level l > 0, relative to the finest level's: factor * 2^l. */
+constexpr double kCoarseToleranceFactor = 10.0;
 
 /** Fewest finite points a cloud needs: MI over fewer occupied voxels says nothing. */
 constexpr std::size_t kMinimumPoints = 3;
@@ -96,6 +106,9 @@ struct RegistrationCore::Impl {
     double resolution = 1.0;
     std::shared_ptr<core::TargetGrid> grid;
     std::unique_ptr<backend::ScoringBackend> backend;
+    /** Second backend for the mirrored start, which may run on its own thread. */
+    std::unique_ptr<backend::ScoringBackend> mirror_backend;
+    std::shared_ptr<const core::SourceSamples> samples;
   };
   std::vector<Level> levels;
   JointHistogram scratch;
@@ -135,6 +148,8 @@ struct RegistrationCore::Impl {
         }
         level.backend = backend::makeCpuBackend();
         level.backend->setTarget(level.grid);
+        level.mirror_backend = backend::makeCpuBackend();
+        level.mirror_backend->setTarget(level.grid);
         levels.push_back(std::move(level));
       }
       target_dirty = false;
@@ -146,9 +161,15 @@ struct RegistrationCore::Impl {
         error = describeTooFew("source", source);
         return false;
       }
-      const auto shared = std::make_shared<const PointList>(source.points);
-      for (Level& level : levels)
-        level.backend->setSource(shared);
+      for (Level& level : levels) {
+        const double cell = parameters.source_subdivision > 0
+                                ? level.resolution / parameters.source_subdivision
+                                : 0.0;
+        level.samples = std::make_shared<const core::SourceSamples>(
+            core::makeSourceSamples(source.points, cell));
+        level.backend->setSource(level.samples);
+        level.mirror_backend->setSource(level.samples);
+      }
       source_dirty = false;
     }
     return true;
@@ -183,6 +204,15 @@ struct RegistrationCore::Impl {
   double
   mutualInformation(const Eigen::Matrix4d& pose, JointHistogram& histogram, int level = 0)
   {
+    return mutualInformation(pose, histogram, *levels[level].backend);
+  }
+
+  /** The same on a given backend (each concurrent search owns one). */
+  double
+  mutualInformation(const Eigen::Matrix4d& pose,
+                    JointHistogram& histogram,
+                    backend::ScoringBackend& backend)
+  {
     // Into the local frames: target_local = R * source_local + R c_s + t - c_t.
     const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
     const Eigen::Vector3d t =
@@ -191,7 +221,7 @@ struct RegistrationCore::Impl {
       histogram.overlap_voxels = 0;
       return 0.0;
     }
-    levels[level].backend->jointHistogram(r.cast<float>(), t.cast<float>(), histogram);
+    backend.jointHistogram(r.cast<float>(), t.cast<float>(), histogram);
     return histogram.overlap_voxels == 0 ? 0.0 : core::mutualInformation(histogram);
   }
 };
@@ -219,6 +249,8 @@ RegistrationCore::setParameters(const Parameters& parameters)
     // The outlier gap scales with the resolution.
     impl_->source_dirty = impl_->source_dirty || old.resolution != parameters.resolution;
   }
+  if (old.source_subdivision != parameters.source_subdivision)
+    impl_->source_dirty = true;
   impl_->parameters = parameters;
   return {};
 }
@@ -320,26 +352,36 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
       full[active[i]] = x[i];
     return full;
   };
-  int level = static_cast<int>(d.levels.size()) - 1; // coarsest first
-  auto cost = [&](const Eigen::VectorXd& x) {
-    return -d.mutualInformation(
-        core::transformFromParameters(fullParameters(x), guess, pivot), histogram, level);
-  };
-
   Eigen::VectorXd steps(n), tolerance(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     steps[i] = p.simplex_steps[active[i]];
     tolerance[i] = active[i] < 3 ? p.translation_tolerance : p.rotation_tolerance;
   }
 
-  core::NelderMeadOptions options;
-  options.tolerance = tolerance;
+  /** One Nelder-Mead search on one level and backend, capped at \a cap iterations. */
+  auto search = [&](int level,
+                    backend::ScoringBackend& backend,
+                    const Eigen::VectorXd& x0,
+                    const Eigen::VectorXd& s,
+                    int cap) {
+    JointHistogram h;
+    auto cost = [&](const Eigen::VectorXd& x) {
+      return -d.mutualInformation(
+          core::transformFromParameters(fullParameters(x), guess, pivot), h, backend);
+    };
+    core::NelderMeadOptions options;
+    options.max_iterations = std::max(cap, 0);
+    // A coarse level only has to land in the basin: the next level restarts with a larger
+    // simplex than this tolerance anyway.
+    options.tolerance =
+        tolerance * (level > 0 ? kCoarseToleranceFactor * std::ldexp(1.0, level) : 1.0);
+    return core::minimizeNelderMead(cost, x0, s, options);
+  };
+
   int budget = p.max_iterations;
   core::NelderMeadResult best;
   bool have_best = false;
-  auto run = [&](const Eigen::VectorXd& x0, const Eigen::VectorXd& s) {
-    options.max_iterations = std::max(budget, 0);
-    core::NelderMeadResult r = core::minimizeNelderMead(cost, x0, s, options);
+  auto account = [&](const core::NelderMeadResult& r) {
     budget -= r.iterations;
     result.iterations += r.iterations;
     result.evaluations += r.evaluations;
@@ -351,22 +393,49 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
 
   // Coarsest level first: the paper's simplex from the guess. Its simplex reaches mostly
   // along the positive steps, so the mirrored start (all steps negated) makes the search
-  // symmetric about the guess: backward motion is found as well as forward motion.
-  run(Eigen::VectorXd::Zero(n), steps);
+  // symmetric about the guess: backward motion is found as well as forward motion. The two
+  // starts are independent and get the same cap, so running them on two threads gives the
+  // same result as running them one after the other.
+  int level = static_cast<int>(d.levels.size()) - 1;
+  const Eigen::VectorXd origin = Eigen::VectorXd::Zero(n);
+  core::NelderMeadResult forward, mirrored;
+  if (p.symmetric_start && p.num_threads > 1) {
+    std::exception_ptr failure;
+    std::thread mirror([&] {
+      try {
+        mirrored = search(level, *d.levels[level].mirror_backend, origin, -steps, budget);
+      }
+      catch (...) {
+        failure = std::current_exception();
+      }
+    });
+    forward = search(level, *d.levels[level].backend, origin, steps, budget);
+    mirror.join();
+    if (failure)
+      std::rethrow_exception(failure);
+  }
+  else {
+    forward = search(level, *d.levels[level].backend, origin, steps, budget);
+    if (p.symmetric_start)
+      mirrored = search(level, *d.levels[level].backend, origin, -steps, budget);
+  }
+  account(forward);
   if (p.symmetric_start)
-    run(Eigen::VectorXd::Zero(n), -steps);
+    account(mirrored);
+
   // Each finer level refines the coarser optimum with a smaller simplex; the costs of two
   // levels are not comparable, so each level keeps its own best.
   while (level > 0) {
     --level;
     const Eigen::VectorXd x = best.x;
     have_best = false;
-    run(x, p.restart_scale * steps);
+    account(search(level, *d.levels[level].backend, x, p.restart_scale * steps, budget));
   }
   // Restarts around the best vertex, with a smaller simplex of alternating orientation, lift
   // the search out of the small local optima that voxel quantisation scatters near the peak.
   for (int k = 0; k < p.restarts && budget > 0; ++k)
-    run(best.x, (k % 2 ? p.restart_scale : -p.restart_scale) * steps);
+    account(search(level, *d.levels[level].backend, best.x,
+                   (k % 2 ? p.restart_scale : -p.restart_scale) * steps, budget));
 
   result.converged = best.converged;
   result.mutual_information = -best.value;

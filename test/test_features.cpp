@@ -4,6 +4,7 @@
  */
 #include "backend/scoring_backend.h"
 #include "core/feature_binning.h"
+#include "core/source_samples.h"
 #include "core/voxel_grid.h"
 
 #include <gtest/gtest.h>
@@ -136,7 +137,7 @@ TEST(CpuBackend, JointHistogramOfIdenticalAndShiftedClouds)
   ASSERT_TRUE(buildTargetGrid(target, 1.0, Feature::PointCount, {4, 5.0}, *grid, error));
   auto backend = backend::makeCpuBackend();
   backend->setTarget(grid);
-  backend->setSource(std::make_shared<const PointList>(target));
+  backend->setSource(std::make_shared<const SourceSamples>(makeSourceSamples(target, 0.0)));
 
   // Identity: every voxel agrees, histogram is diagonal with one count per bin 1..4.
   JointHistogram h;
@@ -171,11 +172,69 @@ TEST(CpuBackend, EmptyVoxelsInsideTheOverlapAreCounted)
   auto backend = backend::makeCpuBackend();
   backend->setTarget(grid);
   PointList source{{0.5f, 0.5f, 0.5f}, {2.5f, 0.5f, 0.5f}, {3.5f, 0.5f, 0.5f}};
-  backend->setSource(std::make_shared<const PointList>(source));
+  backend->setSource(std::make_shared<const SourceSamples>(makeSourceSamples(source, 0.0)));
   JointHistogram h;
   backend->jointHistogram(Eigen::Matrix3f::Identity(), Eigen::Vector3f::Zero(), h);
   EXPECT_EQ(h.overlap_voxels, 4u);
   EXPECT_EQ(h.at(1, 1), 2u); // voxels 0 and 3
   EXPECT_EQ(h.at(0, 1), 1u); // voxel 2: source only
   EXPECT_EQ(h.at(0, 0), 1u); // voxel 1: empty in both
+}
+
+TEST(SourceSamples, SummariseCellsByCountCentroidAndCovariance)
+{
+  // Two cells of edge 1: three points in the first, one in the second.
+  PointList points{{0.2f, 0.2f, 0.2f}, {0.4f, 0.2f, 0.6f}, {0.6f, 0.2f, 0.4f}, {1.5f, 0.5f, 0.5f}};
+  const SourceSamples s = makeSourceSamples(points, 1.0);
+  ASSERT_EQ(s.samples.size(), 2u);
+  EXPECT_EQ(s.point_count, 4u);
+  EXPECT_TRUE(s.has_covariance);
+  const SourceSample& a = s.samples[0];
+  EXPECT_EQ(a.count, 3u);
+  EXPECT_TRUE(a.position.isApprox(Eigen::Vector3f(0.4f, 0.2f, 0.4f), 1e-6f));
+  // x: 0.2, 0.4, 0.6 -> var 0.08/3; z: 0.2, 0.6, 0.4 -> var 0.08/3; cov(x, z) = 0.04/3.
+  EXPECT_NEAR(a.covariance[0], 0.08 / 3, 1e-6);
+  EXPECT_NEAR(a.covariance[5], 0.08 / 3, 1e-6);
+  EXPECT_NEAR(a.covariance[2], 0.04 / 3, 1e-6);
+  EXPECT_NEAR(a.covariance[3], 0.0, 1e-6); // y is constant
+  EXPECT_EQ(s.samples[1].count, 1u);
+
+  const SourceSamples exact = makeSourceSamples(points, 0.0);
+  EXPECT_EQ(exact.samples.size(), 4u);
+  EXPECT_FALSE(exact.has_covariance);
+}
+
+TEST(SourceSamples, MatchPerPointEvaluationWhenCellsSitInsideVoxels)
+{
+  // Points on a 0.1 m lattice inside 2 m voxels, summarised into 0.5 m cells that nest in
+  // the voxels: the point counts agree exactly, the z variances to the quantisation.
+  PointList points;
+  for (int i = 0; i < 40; ++i)
+    for (int k = 0; k < 20; ++k)
+      if ((i * 7 + k * 3) % 5)
+        points.emplace_back(0.05f + 0.1f * i, 0.3f, 0.05f + 0.1f * k);
+  auto grid = std::make_shared<TargetGrid>();
+  std::string error;
+  ASSERT_TRUE(buildTargetGrid(points, 2.0, Feature::PointCount, {64, 400.0}, *grid, error));
+  JointHistogram per_point, sampled;
+  auto backend = backend::makeCpuBackend();
+  backend->setTarget(grid);
+  backend->setSource(std::make_shared<const SourceSamples>(makeSourceSamples(points, 0.0)));
+  backend->jointHistogram(Eigen::Matrix3f::Identity(), Eigen::Vector3f::Zero(), per_point);
+  backend->setSource(std::make_shared<const SourceSamples>(makeSourceSamples(points, 0.5)));
+  backend->jointHistogram(Eigen::Matrix3f::Identity(), Eigen::Vector3f::Zero(), sampled);
+  EXPECT_EQ(per_point.counts, sampled.counts);
+
+  // VarianceZ of one voxel: from points and from their cell summaries.
+  VoxelMoments from_points, from_cells;
+  for (const auto& p : points)
+    if (p.x() < 2.0f && p.z() < 2.0f)
+      from_points.add(quantiseHeight(p.z() / 2.0f, 0));
+  for (const auto& s : makeSourceSamples(points, 0.5).samples)
+    if (s.position.x() < 2.0f && s.position.z() < 2.0f)
+      from_cells.add(quantiseHeight(s.position.z() / 2.0f, 0), s.count,
+                     static_cast<std::uint32_t>(s.covariance[5] / 4.0f * 65536.0f + 0.5f));
+  EXPECT_EQ(from_points.count, from_cells.count);
+  EXPECT_NEAR(featureValue(Feature::VarianceZ, from_points),
+              featureValue(Feature::VarianceZ, from_cells), 2e-3);
 }

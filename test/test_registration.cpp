@@ -218,3 +218,28 @@ TEST(Registration, OtherPointTypesCompileFromTheHeader)
 }
 
 } // namespace
+
+namespace {
+
+TEST(Registration, SameResultForAnyNumberOfThreadsAndRuns)
+{
+  auto source = test_data::loadScan("02", 0);
+  auto target = test_data::loadScan("02", 6);
+  Eigen::Matrix4f first;
+  for (const int threads : {1, 2, 2}) {
+    pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+    pcl_mi::Parameters p;
+    p.num_threads = threads;
+    ASSERT_TRUE(reg.setParameters(p));
+    reg.setInputSource(source);
+    reg.setInputTarget(target);
+    Cloud aligned;
+    reg.align(aligned);
+    if (threads == 1)
+      first = reg.getFinalTransformation();
+    else
+      EXPECT_EQ(first, reg.getFinalTransformation()) << "threads " << threads; // bit-identical
+  }
+}
+
+} // namespace

@@ -51,8 +51,9 @@ struct FeatureBinning {
  *
  * The cost is the paper's (Mehta, McBride, Pandey, "Robust and Fast 3D Scan Alignment using
  * Mutual Information"): 1 m voxels, variance of z, the anisotropic initial simplex
- * [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]. The default search adds a mirrored start and restarts
- * (see symmetric_start, restarts); Parameters::paper() turns them off.
+ * [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]. The defaults add a mirrored start, a coarse-to-fine
+ * pyramid, restarts and a sampled source (symmetric_start, pyramid_levels, restarts,
+ * source_subdivision); Parameters::paper() turns them off.
  */
 struct Parameters {
   /** Voxel edge length R_v in the clouds' units (metres). */
@@ -74,6 +75,13 @@ struct Parameters {
    * starts on the coarsest level, whose smoother cost has a wider basin, and refines the
    * optimum on each finer level. 1 = the paper's single resolution. */
   int pyramid_levels = 2;
+  /** The source enters each evaluation as samples: the points of each cube of edge
+   * (level resolution / source_subdivision) summarised by count, centroid and covariance.
+   * 0 = every point on its own (the paper's exact evaluation). */
+  int source_subdivision = 4;
+  /** Threads one alignment may use: with 2 or more, the two starts of the symmetric search
+   * run concurrently. The result is the same for any number of threads. */
+  int num_threads = 2;
   /** Number of restarts around the best vertex after the first search(es), each with the
    * initial steps scaled by restart_scale and alternating in sign. */
   int restarts = 2;
@@ -87,8 +95,8 @@ struct Parameters {
   /** ... and within this angle (rad) in each rotation parameter. */
   double rotation_tolerance = 0.0005;
 
-  /** \brief The paper's exact search: one simplex from the guess, no mirrored start, no
-   * restarts. */
+  /** \brief The paper's exact method: one simplex from the guess, one grid, every source
+   * point in every evaluation; no mirrored start, pyramid or restarts. */
   static Parameters
   paper();
 

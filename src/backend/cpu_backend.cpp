@@ -34,7 +34,7 @@ public:
   }
 
   void
-  setSource(std::shared_ptr<const PointList> source) override
+  setSource(std::shared_ptr<const core::SourceSamples> source) override
   {
     source_ = std::move(source);
   }
@@ -54,15 +54,15 @@ public:
     const float inv_res = 1.0f / g.resolution;
     const Eigen::Matrix3f r = rotation * inv_res;
     const Eigen::Vector3f t = (translation - g.origin) * inv_res;
-    const PointList& points = *source_;
+    const std::vector<core::SourceSample>& samples = source_->samples;
     Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
     Eigen::Vector3f max = -min;
-    for (const auto& p : points) {
-      const Eigen::Vector3f f = r * p + t;
+    for (const auto& s : samples) {
+      const Eigen::Vector3f f = r * s.position + t;
       min = min.cwiseMin(f);
       max = max.cwiseMax(f);
     }
-    if (points.empty())
+    if (samples.empty())
       return;
 
     // Overlap: intersection of the two bounding boxes, in whole voxels.
@@ -82,8 +82,14 @@ public:
     // runs on floats first so that far points are never cast to int.
     const Eigen::Vector3f lo_f = lo.cast<float>();
     const Eigen::Vector3f hi_f = (hi + Eigen::Vector3i::Ones()).cast<float>();
-    for (const auto& p : points) {
-      const Eigen::Vector3f f = r * p + t;
+    // A sample's z variance after rotation is r_z^T C r_z (r_z: the rotation's z row), here
+    // in quantisation levels squared.
+    const Eigen::Vector3f rz = rotation.row(2).transpose();
+    const float variance_scale = static_cast<float>(core::kHeightLevels) *
+                                 core::kHeightLevels * inv_res * inv_res;
+    const bool has_covariance = source_->has_covariance;
+    for (const auto& s : samples) {
+      const Eigen::Vector3f f = r * s.position + t;
       if (!((f.array() >= lo_f.array()).all() && (f.array() < hi_f.array()).all()))
         continue;
       const int ix = std::min(static_cast<int>(f.x()), hi.x());
@@ -93,7 +99,17 @@ public:
       core::VoxelMoments& m = moments_[cell];
       if (m.count == 0)
         touched_.push_back(static_cast<std::uint32_t>(cell));
-      m.add(core::quantiseHeight(f.z(), iz));
+      const int q = core::quantiseHeight(f.z(), iz);
+      if (!has_covariance) {
+        m.add(q);
+        continue;
+      }
+      const float* c = s.covariance;
+      const float variance_z =
+          rz.x() * (rz.x() * c[0] + 2.0f * (rz.y() * c[1] + rz.z() * c[2])) +
+          rz.y() * (rz.y() * c[3] + 2.0f * rz.z() * c[4]) + rz.z() * rz.z() * c[5];
+      m.add(q, s.count,
+            static_cast<std::uint32_t>(std::max(0.0f, variance_z) * variance_scale + 0.5f));
     }
 
     // Histogram: source-occupied voxels, then target-only voxels, then empty in both.
@@ -121,7 +137,7 @@ public:
 
 private:
   std::shared_ptr<const core::TargetGrid> target_;
-  std::shared_ptr<const PointList> source_;
+  std::shared_ptr<const core::SourceSamples> source_;
   std::vector<core::VoxelMoments> moments_; // per target cell, zero between calls
   std::vector<std::uint32_t> touched_;      // cells with source points this call
 };

@@ -4,6 +4,7 @@
  */
 #pragma once
 
+#include "core/source_samples.h"
 #include "core/voxel_grid.h"
 
 #include <pcl_mi/registration_core.h>
@@ -29,9 +30,9 @@ public:
   virtual void
   setTarget(std::shared_ptr<const core::TargetGrid> target) = 0;
 
-  /** \brief The source points, in the source's local frame. */
+  /** \brief The source, as weighted samples in the source's local frame. */
   virtual void
-  setSource(std::shared_ptr<const PointList> source) = 0;
+  setSource(std::shared_ptr<const core::SourceSamples> source) = 0;
 
   /** \brief Joint histogram over the overlap of the target grid's bounding box and the
    * source transformed by (rotation, translation) into the target's local frame. An empty

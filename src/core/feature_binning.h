@@ -25,12 +25,24 @@ struct VoxelMoments {
   std::uint32_t sum_q = 0;  // <= 255 * count: exact up to 2^24 points in one voxel
   std::uint64_t sum_q2 = 0;
 
+  /** Adds one point at quantised height \a q. */
   void
   add(int q)
   {
     ++count;
     sum_q += static_cast<std::uint32_t>(q);
     sum_q2 += static_cast<std::uint64_t>(q) * static_cast<std::uint64_t>(q);
+  }
+
+  /** Adds \a n points whose heights have mean \a q and variance \a variance_q (both in
+   * quantisation levels): sum q_i^2 = n * (q^2 + variance_q). */
+  void
+  add(int q, std::uint32_t n, std::uint32_t variance_q)
+  {
+    count += n;
+    sum_q += n * static_cast<std::uint32_t>(q);
+    sum_q2 += static_cast<std::uint64_t>(n) *
+              (static_cast<std::uint64_t>(q) * static_cast<std::uint64_t>(q) + variance_q);
   }
 };
 

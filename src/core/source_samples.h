@@ -1,0 +1,42 @@
+/*
+ * pcl_mi: the source as weighted samples, the unit every backend transforms and voxelises.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_mi/registration_core.h>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace pcl_mi {
+namespace core {
+
+/** \brief Points that fall into one small cell, summarised: their count, centroid and
+ * covariance. Moving the summary instead of the points gives the same voxel count and a
+ * close z variance as long as the cell is well inside a voxel. */
+struct SourceSample {
+  Eigen::Vector3f position;   ///< centroid, source local frame
+  std::uint32_t count = 1;    ///< points summarised
+  float covariance[6] = {0};  ///< xx, xy, xz, yy, yz, zz of the points (m^2)
+};
+
+/** \brief The source as the backends consume it. With cell_size 0 every point is its own
+ * sample (count 1, no covariance): the paper's exact per-point evaluation. */
+struct SourceSamples {
+  std::vector<SourceSample> samples;
+  double cell_size = 0.0;        ///< 0: one sample per point
+  bool has_covariance = false;   ///< false when every covariance is zero
+  std::size_t point_count = 0;   ///< points represented
+};
+
+/** \brief Summarises \a points per cube of edge \a cell_size (0 keeps every point). Cells
+ * are ordered by their position in space, which keeps the backends' memory access
+ * coherent. */
+SourceSamples
+makeSourceSamples(const PointList& points, double cell_size);
+
+} // namespace core
+} // namespace pcl_mi
