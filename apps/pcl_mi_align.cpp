@@ -40,6 +40,8 @@ printHelp(const char* program)
       "  -resolution R         voxel size in metres (default 1)\n"
       "  -feature varz|count   voxel feature: variance of z or point count (default varz)\n"
       "  -max_iterations N     Nelder-Mead iteration cap over all restarts (default 1000)\n"
+      "  -levels N             coarse-to-fine pyramid levels (default 2; 1 = single grid)\n"
+      "  -subdivision N        source samples per voxel edge (default 4; 0 = every point)\n"
       "  -paper                the paper's exact search: one simplex, no mirrored start,\n"
       "                        no restarts\n"
       "  -aligned FILE         aligned source cloud (default aligned.pcd)\n"
@@ -146,6 +148,8 @@ main(int argc, char** argv)
     parameters = pcl_mi::Parameters::paper();
   parameters.resolution = resolution;
   parameters.max_iterations = max_iterations;
+  pcl::console::parse_argument(argc, argv, "-levels", parameters.pyramid_levels);
+  pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
   if (feature == "varz")
     parameters.feature = pcl_mi::Feature::VarianceZ;
   else if (feature == "count")

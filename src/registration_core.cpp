@@ -422,14 +422,21 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   account(forward);
   if (p.symmetric_start)
     account(mirrored);
+  // The coarse optimum need not be the fine one, and a coarse grid can pull a good guess
+  // away from the fine peak: the first finer level refines both the coarse optimum and the
+  // guess itself.
+  std::vector<Eigen::VectorXd> candidates{best.x};
+  if (level > 0 && (best.x.cwiseAbs().array() > tolerance.array() * kCoarseToleranceFactor).any())
+    candidates.push_back(origin);
 
-  // Each finer level refines the coarser optimum with a smaller simplex; the costs of two
-  // levels are not comparable, so each level keeps its own best.
+  // Each finer level refines the candidates with a smaller simplex; the costs of two levels
+  // are not comparable, so each level keeps its own best, which the next level refines.
   while (level > 0) {
     --level;
-    const Eigen::VectorXd x = best.x;
     have_best = false;
-    account(search(level, *d.levels[level].backend, x, p.restart_scale * steps, budget));
+    for (const Eigen::VectorXd& x : candidates)
+      account(search(level, *d.levels[level].backend, x, p.restart_scale * steps, budget));
+    candidates = {best.x};
   }
   // Restarts around the best vertex, with a smaller simplex of alternating orientation, lift
   // the search out of the small local optima that voxel quantisation scatters near the peak.

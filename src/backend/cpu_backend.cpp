@@ -50,10 +50,21 @@ public:
     histogram.counts.assign(static_cast<std::size_t>(num_bins) * num_bins, 0);
     histogram.overlap_voxels = 0;
 
-    // Map: source points into grid coordinates; reduce: their bounding box.
+    // One pass maps the samples into grid coordinates, reduces their bounding box and
+    // accumulates the integer moments of those inside the target grid. Every such sample
+    // lies inside the source's box too, so they are exactly the samples in the overlap
+    // (box intersection) computed below. The test runs on floats so far samples are never
+    // cast to int.
     const float inv_res = 1.0f / g.resolution;
     const Eigen::Matrix3f r = rotation * inv_res;
     const Eigen::Vector3f t = (translation - g.origin) * inv_res;
+    const Eigen::Vector3f grid_end = g.dims.cast<float>();
+    // A sample's z variance after rotation is r_z^T C r_z (r_z: the rotation's z row), here
+    // in quantisation levels squared.
+    const Eigen::Vector3f rz = rotation.row(2).transpose();
+    const float variance_scale = static_cast<float>(core::kHeightLevels) *
+                                 core::kHeightLevels * inv_res * inv_res;
+    const bool has_covariance = source_->has_covariance;
     const std::vector<core::SourceSample>& samples = source_->samples;
     Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
     Eigen::Vector3f max = -min;
@@ -61,40 +72,11 @@ public:
       const Eigen::Vector3f f = r * s.position + t;
       min = min.cwiseMin(f);
       max = max.cwiseMax(f);
-    }
-    if (samples.empty())
-      return;
-
-    // Overlap: intersection of the two bounding boxes, in whole voxels.
-    Eigen::Vector3i lo, hi;
-    for (int a = 0; a < 3; ++a) {
-      // Clamp before converting: a far-off pose must not overflow the integer cast.
-      const float limit = static_cast<float>(g.dims[a]);
-      lo[a] = std::max(0, static_cast<int>(std::floor(std::max(min[a], -1.0f))));
-      hi[a] = std::min(g.dims[a] - 1, static_cast<int>(std::floor(std::min(max[a], limit))));
-      if (lo[a] > hi[a])
-        return;
-    }
-    histogram.overlap_voxels = static_cast<std::uint64_t>(hi.x() - lo.x() + 1) *
-                               (hi.y() - lo.y() + 1) * (hi.z() - lo.z() + 1);
-
-    // Map: accumulate integer moments of the source points per overlap voxel. The test
-    // runs on floats first so that far points are never cast to int.
-    const Eigen::Vector3f lo_f = lo.cast<float>();
-    const Eigen::Vector3f hi_f = (hi + Eigen::Vector3i::Ones()).cast<float>();
-    // A sample's z variance after rotation is r_z^T C r_z (r_z: the rotation's z row), here
-    // in quantisation levels squared.
-    const Eigen::Vector3f rz = rotation.row(2).transpose();
-    const float variance_scale = static_cast<float>(core::kHeightLevels) *
-                                 core::kHeightLevels * inv_res * inv_res;
-    const bool has_covariance = source_->has_covariance;
-    for (const auto& s : samples) {
-      const Eigen::Vector3f f = r * s.position + t;
-      if (!((f.array() >= lo_f.array()).all() && (f.array() < hi_f.array()).all()))
+      if (!((f.array() >= 0.0f).all() && (f.array() < grid_end.array()).all()))
         continue;
-      const int ix = std::min(static_cast<int>(f.x()), hi.x());
-      const int iy = std::min(static_cast<int>(f.y()), hi.y());
-      const int iz = std::min(static_cast<int>(f.z()), hi.z());
+      const int ix = std::min(static_cast<int>(f.x()), g.dims.x() - 1);
+      const int iy = std::min(static_cast<int>(f.y()), g.dims.y() - 1);
+      const int iz = std::min(static_cast<int>(f.z()), g.dims.z() - 1);
       const std::size_t cell = g.cellIndex(ix, iy, iz);
       core::VoxelMoments& m = moments_[cell];
       if (m.count == 0)
@@ -111,6 +93,23 @@ public:
       m.add(q, s.count,
             static_cast<std::uint32_t>(std::max(0.0f, variance_z) * variance_scale + 0.5f));
     }
+
+    // Overlap: intersection of the two bounding boxes, in whole voxels.
+    Eigen::Vector3i lo, hi;
+    bool overlap = !samples.empty();
+    for (int a = 0; a < 3 && overlap; ++a) {
+      // Clamp before converting: a far-off pose must not overflow the integer cast.
+      lo[a] = std::max(0, static_cast<int>(std::floor(std::max(min[a], -1.0f))));
+      hi[a] = std::min(g.dims[a] - 1,
+                       static_cast<int>(std::floor(std::min(max[a], grid_end[a]))));
+      overlap = lo[a] <= hi[a];
+    }
+    if (!overlap) {
+      clearTouched();
+      return;
+    }
+    histogram.overlap_voxels = static_cast<std::uint64_t>(hi.x() - lo.x() + 1) *
+                               (hi.y() - lo.y() + 1) * (hi.z() - lo.z() + 1);
 
     // Histogram: source-occupied voxels, then target-only voxels, then empty in both.
     std::uint64_t counted = 0;
@@ -130,12 +129,18 @@ public:
     }
     histogram.counts[0] += static_cast<std::uint32_t>(histogram.overlap_voxels - counted);
 
+    clearTouched();
+  }
+
+private:
+  void
+  clearTouched()
+  {
     for (const std::uint32_t cell : touched_)
       moments_[cell] = core::VoxelMoments{};
     touched_.clear();
   }
 
-private:
   std::shared_ptr<const core::TargetGrid> target_;
   std::shared_ptr<const core::SourceSamples> source_;
   std::vector<core::VoxelMoments> moments_; // per target cell, zero between calls

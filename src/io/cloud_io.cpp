@@ -46,6 +46,47 @@ hasXyz(const pcl::PCLPointCloud2& blob)
   return found == 3;
 }
 
+/** Checks that a file starts like a PCD file: optional comments, then the header keys up
+ * to DATA. PCL 1.13's PCD reader crashes on some files that are not PCD at all, so they are
+ * refused before it sees them. */
+std::string
+checkPcdHeader(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  bool fields = false, points = false;
+  for (int n = 0; n < 64 && std::getline(in, line); ++n) {
+    if (line.empty() || line[0] == '#')
+      continue;
+    std::istringstream words(line);
+    std::string key;
+    words >> key;
+    if (key == "FIELDS")
+      fields = true;
+    else if (key == "POINTS")
+      points = true;
+    else if (key == "DATA")
+      return fields && points ? std::string()
+                              : "'" + path + "' has a PCD header without FIELDS or POINTS";
+    else if (key != "VERSION" && key != "SIZE" && key != "TYPE" && key != "COUNT" &&
+             key != "WIDTH" && key != "HEIGHT" && key != "VIEWPOINT")
+      return "'" + path + "' is not a PCD file (unexpected header line '" +
+             line.substr(0, 40) + "')";
+  }
+  return "'" + path + "' is not a PCD file (no DATA line)";
+}
+
+std::string
+checkPlyHeader(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::getline(in, line);
+  if (!line.empty() && line.back() == '\r')
+    line.pop_back();
+  return line == "ply" ? std::string() : "'" + path + "' is not a PLY file";
+}
+
 } // namespace
 
 std::string
@@ -94,6 +135,9 @@ loadCloud(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
     return "'" + path + "': unknown format (expected .pcd, .ply or KITTI .bin)";
   if (!std::ifstream(path))
     return "cannot open '" + path + "'";
+  const std::string header_error = ext == "pcd" ? checkPcdHeader(path) : checkPlyHeader(path);
+  if (!header_error.empty())
+    return header_error;
 
   pcl::PCLPointCloud2 blob;
   int status = -1;

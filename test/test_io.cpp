@@ -1,0 +1,112 @@
+/*
+ * Readers: KITTI calibration/poses and the velodyne-frame conversion, scan files, matrices.
+ */
+#include "test_data.h"
+
+#include <pcl_mi/io.h>
+#include <pcl_mi/kitti.h>
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+
+namespace {
+
+std::string
+writeTemp(const std::string& name, const std::string& content)
+{
+  const std::string path = testing::TempDir() + name;
+  std::ofstream(path, std::ios::binary) << content;
+  return path;
+}
+
+} // namespace
+
+TEST(Kitti, VelodynePoseHandComputed)
+{
+  // Tr swaps axes like KITTI's (velodyne x forward -> camera z forward); the camera moves
+  // 2 m forward (camera z). In the velodyne frame that is 2 m along x.
+  Eigen::Matrix4d tr;
+  tr << 0, -1, 0, 0,  //
+      0, 0, -1, 0,    //
+      1, 0, 0, 0,     //
+      0, 0, 0, 1;
+  Eigen::Matrix4d cam = Eigen::Matrix4d::Identity();
+  cam(2, 3) = 2.0;
+  const Eigen::Matrix4d velo = pcl_mi::kitti::velodynePose(tr, cam);
+  EXPECT_TRUE(velo.isApprox(test_data::planarMotion(2.0, 0.0, 0.0), 1e-12)) << velo;
+  // Relative transform: scan j (at +2 m) into scan i (at 0): points move forward by 2 m.
+  const Eigen::Matrix4d rel =
+      pcl_mi::kitti::relativeVelodyneTransform(tr, Eigen::Matrix4d::Identity(), cam);
+  EXPECT_TRUE(rel.isApprox(test_data::planarMotion(2.0, 0.0, 0.0), 1e-12)) << rel;
+}
+
+TEST(Kitti, BundledPairMatchesIndependentDerivation)
+{
+  // ../shared/data/kitti_odometry/pairs_velo.csv, row "00,0,9,semantickitti" (float64,
+  // computed outside this project): tx, ty, tz and r11.
+  const Eigen::Matrix4d t = test_data::referenceTransform("00", 0, 9);
+  EXPECT_NEAR(t(0, 3), 6.6831862, 1e-6);
+  EXPECT_NEAR(t(1, 3), 0.169442788, 1e-6);
+  EXPECT_NEAR(t(2, 3), 0.0827515684, 1e-6);
+  EXPECT_NEAR(t(0, 0), 0.999257882, 1e-8);
+}
+
+TEST(Kitti, ReadersReportBadFiles)
+{
+  Eigen::Matrix4d tr;
+  std::vector<Eigen::Matrix4d> poses;
+  EXPECT_NE(pcl_mi::kitti::loadCalibrationTr("/nonexistent/calib.txt", tr), "");
+  EXPECT_NE(pcl_mi::kitti::loadCalibrationTr(writeTemp("calib_no_tr.txt", "P0: 1 2 3\n"), tr)
+                .find("no 'Tr:'"),
+            std::string::npos);
+  EXPECT_NE(pcl_mi::kitti::loadCalibrationTr(writeTemp("calib_short.txt", "Tr: 1 2 3\n"), tr), "");
+  EXPECT_NE(pcl_mi::kitti::loadPoses(writeTemp("poses_bad.txt", "1 0 0 0 0 1 0 0 0 0 1\n"), poses)
+                .find("line 1"),
+            std::string::npos);
+  EXPECT_EQ(pcl_mi::kitti::loadPoses(writeTemp("poses_ok.txt", "1 0 0 5 0 1 0 0 0 0 1 0\n"), poses), "");
+  ASSERT_EQ(poses.size(), 1u);
+  EXPECT_EQ(poses[0](0, 3), 5.0);
+}
+
+TEST(CloudIo, KittiBinAndErrors)
+{
+  const float data[8] = {1, 2, 3, 0.5f, -1, -2, -3, 0.25f};
+  const std::string bin = writeTemp("two.bin", std::string(reinterpret_cast<const char*>(data), sizeof(data)));
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  ASSERT_EQ(pcl_mi::io::loadCloud(bin, cloud), "");
+  ASSERT_EQ(cloud.size(), 2u);
+  EXPECT_EQ(cloud[1].z, -3.0f);
+  EXPECT_EQ(cloud[0].intensity, 0.5f);
+
+  EXPECT_NE(pcl_mi::io::loadCloud(writeTemp("odd.bin", "12345"), cloud).find("multiple of 16"),
+            std::string::npos);
+  EXPECT_NE(pcl_mi::io::loadCloud(writeTemp("empty.bin", ""), cloud), "");
+  EXPECT_NE(pcl_mi::io::loadCloud("/nonexistent.pcd", cloud).find("cannot open"), std::string::npos);
+  EXPECT_NE(pcl_mi::io::loadCloud(writeTemp("junk.pcd", "not a pcd file\n"), cloud), "");
+  EXPECT_NE(pcl_mi::io::loadCloud(writeTemp("cloud.xyz", "1 2 3\n"), cloud).find("unknown format"),
+            std::string::npos);
+}
+
+TEST(CloudIo, TransformFiles)
+{
+  Eigen::Matrix4d t;
+  EXPECT_EQ(pcl_mi::io::loadTransform(writeTemp("t16.txt", "1 0 0 1\n0 1 0 2\n0 0 1 3\n0 0 0 1\n"), t), "");
+  EXPECT_EQ(t(1, 3), 2.0);
+  EXPECT_EQ(pcl_mi::io::loadTransform(writeTemp("t12.txt", "1,0,0,4, 0,1,0,5, 0,0,1,6"), t), "");
+  EXPECT_EQ(t(2, 3), 6.0);
+  EXPECT_EQ(t(3, 3), 1.0);
+  EXPECT_NE(pcl_mi::io::loadTransform(writeTemp("t5.txt", "1 2 3 4 5"), t), "");
+  EXPECT_NE(pcl_mi::io::loadTransform(writeTemp("tx.txt", "1 0 0 x"), t), "");
+}
+
+TEST(CloudIo, PoseErrorOfKnownOffsets)
+{
+  const Eigen::Matrix4d ref = test_data::planarMotion(3, 4, 30);
+  const auto e = pcl_mi::io::poseError(test_data::planarMotion(0.3, 0.4, 0) * ref, ref);
+  EXPECT_NEAR(e.translation, 0.5, 1e-9);
+  EXPECT_NEAR(e.rotation_deg, 0.0, 1e-6);
+  const auto r = pcl_mi::io::poseError(ref * test_data::planarMotion(0, 0, 2), ref);
+  EXPECT_NEAR(r.rotation_deg, 2.0, 1e-9);
+}
