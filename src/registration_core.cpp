@@ -394,30 +394,32 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   // Coarsest level first: the paper's simplex from the guess. Its simplex reaches mostly
   // along the positive steps, so the mirrored start (all steps negated) makes the search
   // symmetric about the guess: backward motion is found as well as forward motion. The two
-  // starts are independent and get the same cap, so running them on two threads gives the
-  // same result as running them one after the other.
+  // starts are independent and split the iteration budget in fixed shares, so running them
+  // on two threads gives the same result as running them one after the other.
   int level = static_cast<int>(d.levels.size()) - 1;
   const Eigen::VectorXd origin = Eigen::VectorXd::Zero(n);
   core::NelderMeadResult forward, mirrored;
+  const int mirrored_cap = p.symmetric_start ? budget / 2 : 0;
+  const int forward_cap = budget - mirrored_cap;
   if (p.symmetric_start && p.num_threads > 1) {
     std::exception_ptr failure;
     std::thread mirror([&] {
       try {
-        mirrored = search(level, *d.levels[level].mirror_backend, origin, -steps, budget);
+        mirrored = search(level, *d.levels[level].mirror_backend, origin, -steps, mirrored_cap);
       }
       catch (...) {
         failure = std::current_exception();
       }
     });
-    forward = search(level, *d.levels[level].backend, origin, steps, budget);
+    forward = search(level, *d.levels[level].backend, origin, steps, forward_cap);
     mirror.join();
     if (failure)
       std::rethrow_exception(failure);
   }
   else {
-    forward = search(level, *d.levels[level].backend, origin, steps, budget);
+    forward = search(level, *d.levels[level].backend, origin, steps, forward_cap);
     if (p.symmetric_start)
-      mirrored = search(level, *d.levels[level].backend, origin, -steps, budget);
+      mirrored = search(level, *d.levels[level].backend, origin, -steps, mirrored_cap);
   }
   account(forward);
   if (p.symmetric_start)
