@@ -225,6 +225,16 @@ private:
   bool
   applyParameters(const pcl_mi::Parameters& parameters, const char* setter);
 
+  /** Applies \a update to a copy of the parameters and then applyParameters(). */
+  template <typename Update>
+  void
+  updateParameters(const char* setter, Update&& update)
+  {
+    pcl_mi::Parameters p = getParameters();
+    update(p);
+    applyParameters(p, setter);
+  }
+
   /** Hands the source points selected by indices_ (all when unset) to the core. Done at
    * every align() because PCL lets indices change between calls without notice. */
   void

@@ -105,9 +105,7 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setResolution(
     double resolution)
 {
-  pcl_mi::Parameters p = getParameters();
-  p.resolution = resolution;
-  applyParameters(p, "setResolution");
+  updateParameters("setResolution", [&](pcl_mi::Parameters& p) { p.resolution = resolution; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -115,9 +113,7 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeature(
     pcl_mi::Feature feature)
 {
-  pcl_mi::Parameters p = getParameters();
-  p.feature = feature;
-  applyParameters(p, "setFeature");
+  updateParameters("setFeature", [&](pcl_mi::Parameters& p) { p.feature = feature; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -125,12 +121,12 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeatureBinning(
     pcl_mi::Feature feature, int num_bins, double max_value)
 {
-  pcl_mi::Parameters p = getParameters();
-  pcl_mi::FeatureBinning& b = feature == pcl_mi::Feature::VarianceZ ? p.variance_z_binning
-                                                                    : p.point_count_binning;
-  b.num_bins = num_bins;
-  b.max_value = max_value;
-  applyParameters(p, "setFeatureBinning");
+  updateParameters("setFeatureBinning", [&](pcl_mi::Parameters& p) {
+    pcl_mi::FeatureBinning& b = feature == pcl_mi::Feature::VarianceZ ? p.variance_z_binning
+                                                                      : p.point_count_binning;
+    b.num_bins = num_bins;
+    b.max_value = max_value;
+  });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -138,9 +134,7 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setSimplexSteps(
     const Vector6d& steps)
 {
-  pcl_mi::Parameters p = getParameters();
-  p.simplex_steps = steps;
-  applyParameters(p, "setSimplexSteps");
+  updateParameters("setSimplexSteps", [&](pcl_mi::Parameters& p) { p.simplex_steps = steps; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -148,9 +142,7 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setSymmetricStart(
     bool symmetric)
 {
-  pcl_mi::Parameters p = getParameters();
-  p.symmetric_start = symmetric;
-  applyParameters(p, "setSymmetricStart");
+  updateParameters("setSymmetricStart", [&](pcl_mi::Parameters& p) { p.symmetric_start = symmetric; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -158,9 +150,7 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfRestarts(
     int restarts)
 {
-  pcl_mi::Parameters p = getParameters();
-  p.restarts = restarts;
-  applyParameters(p, "setNumberOfRestarts");
+  updateParameters("setNumberOfRestarts", [&](pcl_mi::Parameters& p) { p.restarts = restarts; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -168,9 +158,7 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setTranslationTolerance(
     double tolerance)
 {
-  pcl_mi::Parameters p = getParameters();
-  p.translation_tolerance = tolerance;
-  applyParameters(p, "setTranslationTolerance");
+  updateParameters("setTranslationTolerance", [&](pcl_mi::Parameters& p) { p.translation_tolerance = tolerance; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -178,9 +166,7 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRotationTolerance(
     double tolerance)
 {
-  pcl_mi::Parameters p = getParameters();
-  p.rotation_tolerance = tolerance;
-  applyParameters(p, "setRotationTolerance");
+  updateParameters("setRotationTolerance", [&](pcl_mi::Parameters& p) { p.rotation_tolerance = tolerance; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
