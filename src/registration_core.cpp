@@ -106,7 +106,8 @@ struct RegistrationCore::Impl {
     double resolution = 1.0;
     std::shared_ptr<core::TargetGrid> grid;
     std::unique_ptr<backend::ScoringBackend> backend;
-    /** Second backend for the mirrored start, which may run on its own thread. */
+    /** Coarsest level only: a second backend for the mirrored start, which may run on its
+     * own thread. */
     std::unique_ptr<backend::ScoringBackend> mirror_backend;
     std::shared_ptr<const core::SourceSamples> samples;
   };
@@ -148,10 +149,11 @@ struct RegistrationCore::Impl {
         }
         level.backend = backend::makeCpuBackend();
         level.backend->setTarget(level.grid);
-        level.mirror_backend = backend::makeCpuBackend();
-        level.mirror_backend->setTarget(level.grid);
         levels.push_back(std::move(level));
       }
+      // The mirrored start runs only on the coarsest level.
+      levels.back().mirror_backend = backend::makeCpuBackend();
+      levels.back().mirror_backend->setTarget(levels.back().grid);
       target_dirty = false;
       source_dirty = true; // the new backends have no source yet
     }
@@ -168,7 +170,8 @@ struct RegistrationCore::Impl {
         level.samples = std::make_shared<const core::SourceSamples>(
             core::makeSourceSamples(source.points, cell));
         level.backend->setSource(level.samples);
-        level.mirror_backend->setSource(level.samples);
+        if (level.mirror_backend)
+          level.mirror_backend->setSource(level.samples);
       }
       source_dirty = false;
     }
