@@ -1,0 +1,610 @@
+/*
+ * pcl_mi_compare: side-by-side MI-VARZ, MI-N, PCL GICP and PCL NDT on real KITTI pairs with
+ * reference poses, all through one pcl::Registration& code path, in one run. Prints the
+ * paper's tables (mean error per initial-error bin, runtime, success), writes one CSV row per
+ * (pair, method), and shards: -shard k/N runs every N-th pair, -merge combines the CSVs.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_mi/io.h>
+#include <pcl_mi/kitti.h>
+#include <pcl_mi/mutual_information_registration.h>
+
+#include <pcl/console/parse.h>
+#include <pcl/console/print.h>
+#include <pcl/filters/approximate_voxel_grid.h>
+#include <pcl/registration/gicp.h>
+#include <pcl/registration/ndt.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+using pcl::console::print_error;
+using pcl::console::print_info;
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+namespace {
+
+struct Pair {
+  std::string sequence;
+  int source_frame, target_frame;
+  Eigen::Matrix4d reference; // source to target
+  Eigen::Matrix4d guess;
+};
+
+/** One CSV row: a (pair, method) result. */
+struct Row {
+  std::string sequence, direction, method;
+  int target = 0, source = 0;
+  double true_translation = 0, true_rotation = 0;       // m, deg: the reference motion
+  double initial_translation = 0, initial_rotation = 0; // m, deg: error of the guess
+  double translation_error = 0, rotation_error = 0;     // m, deg: error of the result
+  double seconds = 0;
+  bool converged = false;
+  int evaluations = 0;
+};
+
+const char* kCsvHeader =
+    "sequence,target,source,direction,true_translation_m,true_rotation_deg,"
+    "initial_translation_m,initial_rotation_deg,method,translation_error_m,"
+    "rotation_error_deg,seconds,converged,evaluations";
+
+void
+writeRow(std::ostream& out, const Row& r)
+{
+  out << r.sequence << ',' << r.target << ',' << r.source << ',' << r.direction << ','
+      << r.true_translation << ',' << r.true_rotation << ',' << r.initial_translation << ','
+      << r.initial_rotation << ',' << r.method << ',' << r.translation_error << ','
+      << r.rotation_error << ',' << r.seconds << ',' << r.converged << ',' << r.evaluations
+      << '\n';
+}
+
+/** Reads rows written by writeRow(); false with \a error on a malformed file. */
+bool
+readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
+{
+  std::ifstream in(path);
+  if (!in) {
+    error = "cannot open '" + path + "'";
+    return false;
+  }
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line == kCsvHeader)
+      continue;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    std::string item;
+    while (std::getline(ss, item, ','))
+      f.push_back(item);
+    try {
+      if (f.size() != 14)
+        throw std::invalid_argument("field count");
+      Row r;
+      r.sequence = f[0];
+      r.target = std::stoi(f[1]);
+      r.source = std::stoi(f[2]);
+      r.direction = f[3];
+      r.true_translation = std::stod(f[4]);
+      r.true_rotation = std::stod(f[5]);
+      r.initial_translation = std::stod(f[6]);
+      r.initial_rotation = std::stod(f[7]);
+      r.method = f[8];
+      r.translation_error = std::stod(f[9]);
+      r.rotation_error = std::stod(f[10]);
+      r.seconds = std::stod(f[11]);
+      r.converged = f[12] == "1";
+      r.evaluations = std::stoi(f[13]);
+      rows.push_back(r);
+    }
+    catch (const std::exception&) {
+      error = "'" + path + "' line " + std::to_string(number) + " is not a pcl_mi_compare row";
+      return false;
+    }
+  }
+  return true;
+}
+
+std::vector<std::string>
+split(const std::string& s, char sep)
+{
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, sep))
+    if (!item.empty())
+      out.push_back(item);
+  return out;
+}
+
+double
+yawDegrees(const Eigen::Matrix4d& t)
+{
+  return std::atan2(t(1, 0), t(0, 0)) * 180.0 / M_PI;
+}
+
+/** Overrides of the MI defaults from the command line (negative: keep the default). */
+struct MiOverrides {
+  int subdivision = -1, levels = -1, restarts = -1;
+} mi_overrides;
+
+/** Settings that use no knowledge of the true pose; see the README's comparison notes. */
+std::unique_ptr<pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>>
+makeMethod(const std::string& name)
+{
+  if (name.rfind("mi-", 0) == 0) { // mi-varz, mi-n, and the paper's search: mi-varz-paper
+    auto mi = std::make_unique<pcl::MutualInformationRegistration<pcl::PointXYZ>>();
+    const bool paper = name.size() > 6 && name.substr(name.size() - 6) == "-paper";
+    const std::string feature = paper ? name.substr(3, name.size() - 9) : name.substr(3);
+    if (feature != "varz" && feature != "n")
+      return nullptr;
+    pcl_mi::Parameters p = paper ? pcl_mi::Parameters::paper() : pcl_mi::Parameters();
+    p.feature = feature == "n" ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
+    if (mi_overrides.subdivision >= 0)
+      p.source_subdivision = mi_overrides.subdivision;
+    if (mi_overrides.levels >= 0)
+      p.pyramid_levels = mi_overrides.levels;
+    if (mi_overrides.restarts >= 0)
+      p.restarts = mi_overrides.restarts;
+    if (!mi->setParameters(p))
+      return nullptr;
+    return mi;
+  }
+  if (name == "gicp")
+    return std::make_unique<pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ>>();
+  if (name == "ndt") {
+    auto ndt = std::make_unique<pcl::NormalDistributionsTransform<pcl::PointXYZ, pcl::PointXYZ>>();
+    ndt->setResolution(1.0f);
+    ndt->setStepSize(0.1);
+    // PCL 1.13 stops when the squared translation step <= epsilon: the tutorial's 0.01
+    // would stop after one 0.1 m step.
+    ndt->setTransformationEpsilon(1e-8);
+    ndt->setMaximumIterations(35);
+    return ndt;
+  }
+  return nullptr;
+}
+
+Row
+runMethod(const std::string& name,
+          const Cloud::Ptr& source,
+          const Cloud::Ptr& target,
+          const Pair& pair)
+{
+  auto reg = makeMethod(name);
+  const auto start = std::chrono::steady_clock::now();
+  Cloud::Ptr input = source;
+  if (name == "ndt") { // the NDT tutorial registers a 0.2 m voxel-filtered source
+    input.reset(new Cloud);
+    pcl::ApproximateVoxelGrid<pcl::PointXYZ> filter;
+    filter.setLeafSize(0.2f, 0.2f, 0.2f);
+    filter.setInputCloud(source);
+    filter.filter(*input);
+  }
+  reg->setInputSource(input);
+  reg->setInputTarget(target);
+  Cloud aligned;
+  reg->align(aligned, pair.guess.cast<float>());
+  Row o;
+  o.method = name;
+  o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const auto e = pcl_mi::io::poseError(reg->getFinalTransformation().cast<double>(),
+                                       pair.reference);
+  o.translation_error = e.translation;
+  o.rotation_error = e.rotation_deg;
+  o.converged = reg->hasConverged();
+  o.evaluations = 0;
+  if (auto* mi = dynamic_cast<pcl::MutualInformationRegistration<pcl::PointXYZ>*>(reg.get()))
+    o.evaluations = mi->getNumberOfEvaluations();
+  return o;
+}
+
+double
+median(std::vector<double> v)
+{
+  if (v.empty())
+    return NAN;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double
+mean(const std::vector<double>& v)
+{
+  double s = 0;
+  for (double x : v)
+    s += x;
+  return v.empty() ? NAN : s / v.size();
+}
+
+bool
+succeeded(const Row& r, const std::vector<double>& bound)
+{
+  return r.translation_error < bound[0] && r.rotation_error < bound[1];
+}
+
+/** Prints one table: rows are bins of an initial-error value, columns the methods. */
+void
+printTable(const std::string& title,
+           const std::vector<Row>& rows,
+           const std::vector<std::string>& methods,
+           double bin_width,
+           int bins,
+           const char* unit,
+           const std::function<double(const Row&)>& key,
+           const std::function<double(const std::vector<const Row*>&)>& statistic,
+           const char* format)
+{
+  std::printf("\n%s\n%-10s", title.c_str(), "bin");
+  for (const auto& m : methods)
+    std::printf(" %10s", m.c_str());
+  std::printf(" %6s\n", "pairs");
+  for (int b = 0; b < bins; ++b) {
+    const double lo = b * bin_width, hi = (b + 1) * bin_width;
+    std::vector<std::vector<const Row*>> per_method(methods.size());
+    for (const auto& r : rows) {
+      const double k = key(r);
+      if (k < lo || k >= hi)
+        continue;
+      for (std::size_t m = 0; m < methods.size(); ++m)
+        if (r.method == methods[m])
+          per_method[m].push_back(&r);
+    }
+    if (per_method.front().empty())
+      continue;
+    char label[32];
+    std::snprintf(label, sizeof(label), "%g-%g %s", lo, hi, unit);
+    std::printf("%-10s", label);
+    for (const auto& v : per_method) {
+      if (v.empty())
+        std::printf(" %10s", "-");
+      else
+        std::printf(format, statistic(v));
+    }
+    std::printf(" %6zu\n", per_method.front().size());
+  }
+}
+
+void
+printTables(const std::vector<Row>& rows,
+            const std::vector<std::string>& methods,
+            const std::vector<double>& bound)
+{
+  auto by_translation = [](const Row& r) { return r.initial_translation; };
+  auto by_rotation = [](const Row& r) { return r.initial_rotation; };
+  auto mean_of = [](double Row::*field) {
+    return [field](const std::vector<const Row*>& v) {
+      std::vector<double> x;
+      for (const Row* r : v)
+        x.push_back(r->*field);
+      return mean(x);
+    };
+  };
+  auto median_seconds = [](const std::vector<const Row*>& v) {
+    std::vector<double> x;
+    for (const Row* r : v)
+      x.push_back(r->seconds);
+    return median(x);
+  };
+  auto success_rate = [&](const std::vector<const Row*>& v) {
+    int ok = 0;
+    for (const Row* r : v)
+      ok += succeeded(*r, bound);
+    return 100.0 * ok / v.size();
+  };
+  printTable("Mean translation error [m] by initial translation error", rows, methods, 1.0,
+             40, "m", by_translation, mean_of(&Row::translation_error), " %10.3f");
+  printTable("Mean rotation error [deg] by initial rotation error", rows, methods, 2.0, 90,
+             "deg", by_rotation, mean_of(&Row::rotation_error), " %10.3f");
+  printTable("Median runtime [s] by initial translation error", rows, methods, 1.0, 40, "m",
+             by_translation, median_seconds, " %10.3f");
+  char title[128];
+  std::snprintf(title, sizeof(title),
+                "Success rate [%%] (< %.2f m and < %.2f deg) by initial translation error",
+                bound[0], bound[1]);
+  printTable(title, rows, methods, 1.0, 40, "m", by_translation, success_rate, " %10.1f");
+
+  std::printf("\n%-14s %6s %9s %9s %9s %9s %10s %10s %8s\n", "method", "rows", "success",
+              "mean_t", "mean_r", "max_t", "median_s", "mean_evals", "vs_first");
+  double first_time = NAN;
+  for (const auto& m : methods) {
+    std::vector<double> t, r, s, ev;
+    int ok = 0;
+    for (const auto& row : rows) {
+      if (row.method != m)
+        continue;
+      t.push_back(row.translation_error);
+      r.push_back(row.rotation_error);
+      s.push_back(row.seconds);
+      ev.push_back(row.evaluations);
+      ok += succeeded(row, bound);
+    }
+    if (t.empty())
+      continue;
+    if (std::isnan(first_time))
+      first_time = median(s);
+    std::printf("%-14s %6zu %8.1f%% %9.3f %9.3f %9.3f %10.3f %10.1f %7.1fx\n", m.c_str(),
+                t.size(), 100.0 * ok / t.size(), mean(t), mean(r),
+                *std::max_element(t.begin(), t.end()), median(s), mean(ev),
+                median(s) / first_time);
+  }
+  std::printf("(errors in m and deg; vs_first: median time relative to %s)\n",
+              methods.front().c_str());
+}
+
+void
+printHelp(const char* program)
+{
+  print_info(
+      "Compares MI registration with PCL GICP and NDT on KITTI pairs with reference poses.\n"
+      "Usage: %s -kitti DIR [options]\n"
+      "       %s -merge A.csv B.csv ... [-csv ALL.csv] [-methods LIST]\n"
+      "  -kitti DIR            KITTI odometry root (holds sequences/SS/...)\n"
+      "  -sequences 00,02      sequences (default: 00,01,02,05,08)\n"
+      "  -frames N             frames 0..N-1 of each sequence (default 10)\n"
+      "  -poses semantic|gt    sequences/SS/poses.txt or poses/SS.txt (default semantic)\n"
+      "  -distance MIN,MAX     pair translation range in m (default 1,10)\n"
+      "  -max_yaw DEG          largest |yaw| of a pair (default 20)\n"
+      "  -pairs SS:i:j,...     only these pairs (sequence SS, frames i < j)\n"
+      "  -stride K             every K-th pair only (default 1)\n"
+      "  -directions both|forward|backward   (default both)\n"
+      "  -perturb T,YAW        guess = reference perturbed by T m (random horizontal\n"
+      "                        direction) and +-YAW deg (default: identity guess, the paper's\n"
+      "                        protocol)\n"
+      "  -perturb TMIN,TMAX,YAWMAX   the same with T uniform in [TMIN, TMAX] and yaw uniform\n"
+      "                        in [-YAWMAX, YAWMAX]\n"
+      "  -seed S               random seed for -perturb (default 1)\n"
+      "  -methods LIST         from mi-varz,mi-n,mi-varz-paper,mi-n-paper,gicp,ndt\n"
+      "                        (default mi-varz,mi-n,gicp,ndt)\n"
+      "  -success T,R          success bound in m and deg (default 0.5,2)\n"
+      "  -csv FILE             one row per (pair, method)\n"
+      "  -shard K/N            run only pairs K, K+N, K+2N, ... (K in 1..N), for GNU parallel\n"
+      "                        or Slurm arrays; combine the shards' CSVs with -merge\n"
+      "  -subdivision N, -levels N, -restarts N   override MI parameters\n",
+      program,
+      program);
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  if (pcl::console::find_switch(argc, argv, "-h") || argc < 2) {
+    printHelp(argv[0]);
+    return argc < 2 ? 1 : 0;
+  }
+  std::string root, sequences_arg = "00,01,02,05,08", poses_kind = "semantic";
+  std::string methods_arg = "mi-varz,mi-n,gicp,ndt", directions = "both", csv_path, pairs_arg;
+  std::string shard_arg;
+  int frames = 10, stride = 1, seed = 1;
+  double max_yaw = 20.0;
+  std::vector<double> distance{1.0, 10.0}, perturb, success{0.5, 2.0};
+  pcl::console::parse_argument(argc, argv, "-kitti", root);
+  pcl::console::parse_argument(argc, argv, "-sequences", sequences_arg);
+  pcl::console::parse_argument(argc, argv, "-poses", poses_kind);
+  pcl::console::parse_argument(argc, argv, "-methods", methods_arg);
+  pcl::console::parse_argument(argc, argv, "-directions", directions);
+  pcl::console::parse_argument(argc, argv, "-csv", csv_path);
+  pcl::console::parse_argument(argc, argv, "-pairs", pairs_arg);
+  pcl::console::parse_argument(argc, argv, "-shard", shard_arg);
+  pcl::console::parse_argument(argc, argv, "-frames", frames);
+  pcl::console::parse_argument(argc, argv, "-stride", stride);
+  pcl::console::parse_argument(argc, argv, "-seed", seed);
+  pcl::console::parse_argument(argc, argv, "-max_yaw", max_yaw);
+  pcl::console::parse_argument(argc, argv, "-subdivision", mi_overrides.subdivision);
+  pcl::console::parse_argument(argc, argv, "-levels", mi_overrides.levels);
+  pcl::console::parse_argument(argc, argv, "-restarts", mi_overrides.restarts);
+  pcl::console::parse_x_arguments(argc, argv, "-distance", distance);
+  pcl::console::parse_x_arguments(argc, argv, "-perturb", perturb);
+  pcl::console::parse_x_arguments(argc, argv, "-success", success);
+  const auto methods = split(methods_arg, ',');
+  for (const auto& m : methods)
+    if (!makeMethod(m)) {
+      print_error("pcl_mi_compare: unknown method '%s'\n", m.c_str());
+      return 1;
+    }
+  if (distance.size() != 2 || success.size() != 2 ||
+      !(perturb.empty() || perturb.size() == 2 || perturb.size() == 3) || stride < 1) {
+    print_error("pcl_mi_compare: bad arguments (see -h)\n");
+    return 1;
+  }
+
+  // Merge mode: combine shard CSVs and print the tables.
+  const int merge_at = pcl::console::find_argument(argc, argv, "-merge");
+  if (merge_at >= 0) {
+    std::vector<Row> rows;
+    for (int a = merge_at + 1; a < argc && argv[a][0] != '-'; ++a) {
+      std::string error;
+      if (!readRows(argv[a], rows, error)) {
+        print_error("pcl_mi_compare: %s\n", error.c_str());
+        return 1;
+      }
+    }
+    if (rows.empty()) {
+      print_error("pcl_mi_compare: -merge found no rows\n");
+      return 1;
+    }
+    if (!csv_path.empty()) {
+      std::ofstream csv(csv_path);
+      csv << kCsvHeader << '\n';
+      for (const auto& r : rows)
+        writeRow(csv, r);
+    }
+    std::vector<std::string> present;
+    for (const auto& m : methods)
+      if (std::any_of(rows.begin(), rows.end(), [&](const Row& r) { return r.method == m; }))
+        present.push_back(m);
+    if (present.empty()) {
+      print_error("pcl_mi_compare: the rows hold none of the methods %s\n", methods_arg.c_str());
+      return 1;
+    }
+    printTables(rows, present, success);
+    return 0;
+  }
+
+  if (root.empty()) {
+    print_error("pcl_mi_compare: -kitti DIR is required (see -h)\n");
+    return 1;
+  }
+  int shard = 1, shards = 1;
+  if (!shard_arg.empty() &&
+      (std::sscanf(shard_arg.c_str(), "%d/%d", &shard, &shards) != 2 || shards < 1 ||
+       shard < 1 || shard > shards)) {
+    print_error("pcl_mi_compare: -shard takes K/N with 1 <= K <= N, got '%s'\n",
+                shard_arg.c_str());
+    return 1;
+  }
+  std::map<std::tuple<std::string, int, int>, bool> wanted_pairs;
+  for (const auto& p : split(pairs_arg, ',')) {
+    const auto sij = split(p, ':');
+    if (sij.size() != 3) {
+      print_error("pcl_mi_compare: -pairs takes SS:i:j items\n");
+      return 1;
+    }
+    wanted_pairs[{sij[0], std::stoi(sij[1]), std::stoi(sij[2])}] = true;
+  }
+
+  // Every shard enumerates the same pairs and draws the same perturbations, then keeps its
+  // share, so shards together give exactly the rows of one unsharded run.
+  std::mt19937 rng(seed);
+  std::vector<Pair> pairs;
+  std::map<std::string, Cloud::Ptr> clouds;
+  int candidate = 0, enumerated = 0;
+  for (const auto& seq : split(sequences_arg, ',')) {
+    Eigen::Matrix4d tr;
+    std::vector<Eigen::Matrix4d> poses;
+    std::string error =
+        pcl_mi::kitti::loadCalibrationTr(root + "/sequences/" + seq + "/calib.txt", tr);
+    if (error.empty())
+      error = pcl_mi::kitti::loadPoses(poses_kind == "gt" ? root + "/poses/" + seq + ".txt"
+                                                          : root + "/sequences/" + seq +
+                                                                "/poses.txt",
+                                       poses);
+    if (!error.empty()) {
+      print_error("pcl_mi_compare: %s\n", error.c_str());
+      return 1;
+    }
+    const int n = std::min<int>(frames, static_cast<int>(poses.size()));
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j) {
+        const Eigen::Matrix4d t_ij =
+            pcl_mi::kitti::relativeVelodyneTransform(tr, poses[i], poses[j]);
+        const double dist = t_ij.topRightCorner<3, 1>().norm();
+        if (!wanted_pairs.empty() ? !wanted_pairs.count({seq, i, j})
+                                  : (dist < distance[0] || dist >= distance[1] ||
+                                     std::abs(yawDegrees(t_ij)) > max_yaw))
+          continue;
+        if (candidate++ % stride)
+          continue;
+        for (int dir = 0; dir < 2; ++dir) {
+          if ((dir == 0 && directions == "backward") || (dir == 1 && directions == "forward"))
+            continue;
+          Pair p;
+          p.sequence = seq;
+          p.target_frame = dir == 0 ? i : j;
+          p.source_frame = dir == 0 ? j : i;
+          p.reference = dir == 0 ? t_ij : Eigen::Matrix4d(t_ij.inverse());
+          p.guess = Eigen::Matrix4d::Identity();
+          if (!perturb.empty()) {
+            std::uniform_real_distribution<double> unit(0.0, 1.0);
+            const double a = 2.0 * M_PI * unit(rng);
+            const double t = perturb.size() == 2
+                                 ? perturb[0]
+                                 : perturb[0] + (perturb[1] - perturb[0]) * unit(rng);
+            const double yaw_max = perturb.back();
+            const double yaw = perturb.size() == 2 ? (unit(rng) < 0.5 ? -yaw_max : yaw_max)
+                                                   : yaw_max * (2.0 * unit(rng) - 1.0);
+            Eigen::Affine3d d = Eigen::Translation3d(t * std::cos(a), t * std::sin(a), 0.0) *
+                                Eigen::AngleAxisd(yaw * M_PI / 180.0,
+                                                  Eigen::Vector3d::UnitZ());
+            p.guess = d.matrix() * p.reference;
+          }
+          if (enumerated++ % shards != shard - 1)
+            continue;
+          pairs.push_back(p);
+          for (int f : {i, j}) {
+            const std::string key = seq + "/" + std::to_string(f);
+            if (clouds.count(key))
+              continue;
+            pcl::PointCloud<pcl::PointXYZI> xyzi;
+            error = pcl_mi::io::loadCloud(pcl_mi::kitti::scanPath(root, seq, f), xyzi);
+            if (!error.empty()) {
+              print_error("pcl_mi_compare: %s\n", error.c_str());
+              return 1;
+            }
+            auto cloud = pcl::make_shared<Cloud>();
+            pcl::copyPointCloud(xyzi, *cloud);
+            clouds[key] = cloud;
+          }
+        }
+      }
+  }
+  if (pairs.empty()) {
+    print_error("pcl_mi_compare: no pair matches the selection\n");
+    return 1;
+  }
+  print_info("pcl_mi_compare: %zu alignments per method (%s guess, shard %d/%d), methods %s\n",
+             pairs.size(), perturb.empty() ? "identity" : "perturbed", shard, shards,
+             methods_arg.c_str());
+
+  std::ofstream csv;
+  if (!csv_path.empty()) {
+    csv.open(csv_path);
+    if (!csv) {
+      print_error("pcl_mi_compare: cannot write '%s'\n", csv_path.c_str());
+      return 1;
+    }
+    csv << kCsvHeader << '\n';
+  }
+  std::vector<Row> rows;
+  const auto started = std::chrono::steady_clock::now();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const Pair& p = pairs[k];
+    const auto& src = clouds[p.sequence + "/" + std::to_string(p.source_frame)];
+    const auto& tgt = clouds[p.sequence + "/" + std::to_string(p.target_frame)];
+    const auto truth = pcl_mi::io::poseError(Eigen::Matrix4d::Identity(), p.reference);
+    const auto initial = pcl_mi::io::poseError(p.guess, p.reference);
+    std::printf("[%3zu/%zu] %s %d->%d %5.2f m:", k + 1, pairs.size(), p.sequence.c_str(),
+                p.source_frame, p.target_frame, truth.translation);
+    for (const auto& m : methods) {
+      Row row = runMethod(m, src, tgt, p);
+      row.sequence = p.sequence;
+      row.target = p.target_frame;
+      row.source = p.source_frame;
+      row.direction = p.source_frame > p.target_frame ? "forward" : "backward";
+      row.true_translation = truth.translation;
+      row.true_rotation = truth.rotation_deg;
+      row.initial_translation = initial.translation;
+      row.initial_rotation = initial.rotation_deg;
+      std::printf("  %s %.3f m %.2f deg %.3f s", m.c_str(), row.translation_error,
+                  row.rotation_error, row.seconds);
+      if (csv.is_open())
+        writeRow(csv, row);
+      rows.push_back(row);
+    }
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    std::printf("  (eta %.0f s)\n", elapsed / (k + 1) * (pairs.size() - k - 1));
+    std::fflush(stdout);
+  }
+  if (csv.is_open())
+    csv.flush();
+  printTables(rows, methods, success);
+  return 0;
+}

@@ -1,0 +1,85 @@
+#!/usr/bin/python3
+"""Plots pcl_mi_compare results like the paper's figures.
+
+Usage: pcl_mi_plot.py RESULTS.csv OUTPUT_PREFIX
+
+Writes OUTPUT_PREFIX_translation.png and OUTPUT_PREFIX_rotation.png: boxplots of the final
+translation (rotation) error per method, grouped by 1 m (2 deg) bins of the initial error.
+Needs python3-matplotlib (Debian).
+"""
+import csv
+import math
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only; works without a display
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def read_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def boxplot(rows, initial_key, final_key, bin_width, unit, title, path):
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    bins = sorted({int(float(r[initial_key]) // bin_width) for r in rows})
+    fig, ax = plt.subplots(figsize=(max(6, 1.6 * len(bins) * max(1, len(methods)) / 2), 4.5))
+    width = 0.8 / max(1, len(methods))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for m_index, method in enumerate(methods):
+        data, positions = [], []
+        for b_index, b in enumerate(bins):
+            values = [float(r[final_key]) for r in rows
+                      if r["method"] == method and int(float(r[initial_key]) // bin_width) == b]
+            if values:
+                data.append(values)
+                positions.append(b_index + (m_index - (len(methods) - 1) / 2) * width)
+        if not data:
+            continue
+        parts = ax.boxplot(data, positions=positions, widths=width * 0.9, patch_artist=True,
+                           manage_ticks=False, showfliers=True,
+                           medianprops={"color": "black"})
+        for box in parts["boxes"]:
+            box.set_facecolor(colours[m_index % len(colours)])
+            box.set_alpha(0.7)
+        ax.plot([], [], color=colours[m_index % len(colours)], linewidth=8, label=method)
+    ax.set_xticks(range(len(bins)))
+    ax.set_xticklabels([f"{b * bin_width:g}-{(b + 1) * bin_width:g}" for b in bins])
+    ax.set_xlabel(f"initial error [{unit}]")
+    ax.set_ylabel(f"final error [{unit}]")
+    ax.set_yscale("symlog", linthresh=0.1 if unit == "m" else 0.5)
+    ax.set_ylim(bottom=0)
+    ax.set_title(title)
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(loc="upper left", fontsize="small")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv):
+    if len(argv) != 3:
+        print(__doc__.strip(), file=sys.stderr)
+        return 1
+    try:
+        rows = read_rows(argv[1])
+    except OSError as e:
+        print(f"pcl_mi_plot: {e}", file=sys.stderr)
+        return 1
+    if not rows or "translation_error_m" not in rows[0]:
+        print(f"pcl_mi_plot: '{argv[1]}' holds no pcl_mi_compare rows", file=sys.stderr)
+        return 1
+    rows = [r for r in rows if not math.isnan(float(r["translation_error_m"]))]
+    prefix = argv[2]
+    boxplot(rows, "initial_translation_m", "translation_error_m", 1.0, "m",
+            "Final translation error vs initial error", prefix + "_translation.png")
+    boxplot(rows, "initial_rotation_deg", "rotation_error_deg", 2.0, "deg",
+            "Final rotation error vs initial error", prefix + "_rotation.png")
+    print(f"wrote {prefix}_translation.png and {prefix}_rotation.png")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

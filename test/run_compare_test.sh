@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# End-to-end: pcl_mi_compare on the bundled pairs (all four methods, both directions), two
+# shards merged, then pcl_mi_plot.py. Asserts the CSV and PNGs exist and every MI row meets
+# the registration bound (0.15 m, 0.5 deg).
+# Usage: run_compare_test.sh COMPARE_BINARY PLOT_SCRIPT DATA_DIR WORK_DIR
+set -euo pipefail
+compare=$1 plot=$2 data=$3 work=$4
+rm -rf "$work" && mkdir -p "$work"
+args=(-kitti "$data/kitti" -sequences 00,02 -pairs 00:0:9,02:0:6 -methods mi-varz,mi-n,gicp,ndt)
+"$compare" "${args[@]}" -shard 1/2 -csv "$work/shard1.csv"
+"$compare" "${args[@]}" -shard 2/2 -csv "$work/shard2.csv"
+"$compare" -merge "$work/shard1.csv" "$work/shard2.csv" -csv "$work/all.csv" | tee "$work/tables.txt"
+grep -q "Mean translation error \[m\] by initial translation error" "$work/tables.txt"
+/usr/bin/python3 "$plot" "$work/all.csv" "$work/plot"
+test -s "$work/plot_translation.png" && test -s "$work/plot_rotation.png"
+# 4 alignments x 4 methods, and every MI row within the bound.
+test "$(tail -n +2 "$work/all.csv" | wc -l)" -eq 16
+awk -F, 'NR > 1 && $9 ~ /^mi-/ { n++; if ($10 >= 0.15 || $11 >= 0.5) { print "MI row out of bound: " $0; bad++ } }
+         END { if (n != 8 || bad) exit 1; print n " MI rows within 0.15 m / 0.5 deg" }' "$work/all.csv"
