@@ -190,7 +190,9 @@ public:
   }
 
   /** \brief Mutual information (nats) of source and target at \a pose (source to target),
-   * e.g. for cost-surface plots. 0 where the clouds do not overlap; negative (with
+   * e.g. for cost-surface plots. The source is converted once and reused while the source
+   * cloud and indices objects stay the same; call setInputSource() after editing a cloud
+   * in place. 0 where the clouds do not overlap; negative (with
    * PCL_ERROR) when the inputs are unusable. */
   double
   evaluate(const Matrix4& pose);
@@ -240,8 +242,21 @@ private:
   void
   updateSource();
 
+  /** Identity of the source last handed to the core (cloud, indices), for evaluate(). */
+  struct ConvertedSource {
+    const void* cloud = nullptr;
+    const void* indices = nullptr;
+    std::size_t size = 0;
+    bool
+    operator==(const ConvertedSource& o) const
+    {
+      return cloud == o.cloud && indices == o.indices && size == o.size && cloud;
+    }
+  };
+
   pcl_mi::RegistrationCore core_;
   pcl_mi::AlignmentResult result_;
+  ConvertedSource converted_source_;
 };
 
 } // namespace pcl

@@ -38,6 +38,7 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setInputSource(
     Base::setInputSource(cloud);
   }
   converged_ = false;
+  converted_source_ = ConvertedSource{};
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -66,6 +67,7 @@ template <typename PointSource, typename PointTarget, typename Scalar>
 void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::updateSource()
 {
+  converted_source_ = {input_.get(), indices_.get(), indices_ ? indices_->size() : 0};
   pcl_mi::PointList points;
   if (input_) {
     if (indices_) {
@@ -195,7 +197,10 @@ double
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::evaluate(
     const Matrix4& pose)
 {
-  updateSource();
+  // Cost surfaces call this thousands of times: convert the source only when it changed.
+  const ConvertedSource current{input_.get(), indices_.get(), indices_ ? indices_->size() : 0};
+  if (!(current == converted_source_))
+    updateSource();
   std::string error;
   const double mi = core_.evaluate(pose.template cast<double>(), &error);
   if (!error.empty())
