@@ -11,9 +11,14 @@
 #include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
 
+#ifdef PCL_MI_WITH_VISUALIZATION
+#include <pcl/visualization/pcl_visualizer.h>
+#endif
+
 #include <Eigen/Geometry>
 
 #include <chrono>
+#include <tuple>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -47,6 +52,9 @@ printHelp(const char* program)
       "  -aligned FILE         aligned source cloud (default aligned.pcd)\n"
       "  -merged FILE          target (grey) + aligned source (red) as XYZRGB for\n"
       "                        pcl_viewer (default merged.pcd)\n"
+      "  -view                 show before (guess) and after side by side in a PCL viewer\n"
+      "  -screenshot FILE.png  save that side-by-side view as an image (works under Xvfb:\n"
+      "                        xvfb-run -a pcl_mi_align ... -screenshot view.png)\n"
       "  -h                    this help\n",
       program);
 }
@@ -76,6 +84,50 @@ appendColoured(const pcl::PointCloud<pcl::PointXYZI>& in,
     q.z = p.z;
     out.push_back(q);
   }
+}
+
+/** Shows (or, with \a screenshot, saves) target + source under the guess on the left and
+ * target + aligned source on the right, seen from above. */
+bool
+showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
+                const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& before,
+                const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& after,
+                const std::string& screenshot)
+{
+#ifdef PCL_MI_WITH_VISUALIZATION
+  using Handler = pcl::visualization::PointCloudColorHandlerCustom<pcl::PointXYZI>;
+  pcl::visualization::PCLVisualizer viewer("pcl_mi_align: before (guess) | after");
+  viewer.setSize(1600, 800);
+  int left = 0, right = 0;
+  viewer.createViewPort(0.0, 0.0, 0.5, 1.0, left);
+  viewer.createViewPort(0.5, 0.0, 1.0, 1.0, right);
+  for (const auto& [viewport, source, label] :
+       {std::make_tuple(left, before, "before (initial guess)"),
+        std::make_tuple(right, after, "after (pcl_mi)")}) {
+    const std::string id = std::to_string(viewport);
+    viewer.setBackgroundColor(1.0, 1.0, 1.0, viewport);
+    viewer.addPointCloud<pcl::PointXYZI>(target, Handler(target, 120, 120, 120),
+                                         "target" + id, viewport);
+    viewer.addPointCloud<pcl::PointXYZI>(source, Handler(source, 230, 40, 40), "source" + id,
+                                         viewport);
+    viewer.addText(std::string(label) + "   grey: target, red: source", 10, 10, 18, 0, 0, 0,
+                   "label" + id, viewport);
+  }
+  viewer.setCameraPosition(0, 0, 110, 0, 0, 0, 0, 1, 0);
+  if (!screenshot.empty()) {
+    viewer.spinOnce(100);
+    viewer.saveScreenshot(screenshot);
+  }
+  else {
+    viewer.spin();
+  }
+  return true;
+#else
+  (void)target, (void)before, (void)after, (void)screenshot;
+  print_error("pcl_mi_align: built without PCL's visualization module; -view and "
+              "-screenshot are unavailable\n");
+  return false;
+#endif
 }
 
 } // namespace
@@ -214,6 +266,19 @@ main(int argc, char** argv)
     print_error("pcl_mi_align: cannot write '%s' or '%s'\n", aligned_path.c_str(),
                 merged_path.c_str());
     return 1;
+  }
+  std::string screenshot;
+  pcl::console::parse_argument(argc, argv, "-screenshot", screenshot);
+  if (pcl::console::find_switch(argc, argv, "-view") || !screenshot.empty()) {
+    auto before = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>();
+    pcl::transformPointCloud(*source, *before, guess.cast<float>());
+    auto after = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>(aligned);
+    if (!showBeforeAfter(target, before, after, screenshot))
+      return 1;
+    if (!screenshot.empty()) {
+      print_info("Wrote ");
+      print_value("%s\n", screenshot.c_str());
+    }
   }
   print_info("Wrote ");
   print_value("%s", aligned_path.c_str());

@@ -7,7 +7,7 @@ packages=(
   libpcl-dev libeigen3-dev libflann-dev libboost-all-dev libvtk9-dev libopenmpi-dev
   libgtest-dev libbenchmark-dev
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
-  python3-matplotlib python3-numpy
+  python3-matplotlib python3-numpy xvfb xauth
 )
 missing=()
 for p in "${packages[@]}"; do
