@@ -5,8 +5,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   libpcl-dev libeigen3-dev libflann-dev libboost-all-dev libvtk9-dev libopenmpi-dev
-  libgtest-dev libbenchmark-dev
-  pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
+  libgtest-dev
   python3-matplotlib python3-numpy xvfb xauth
 )
 missing=()
