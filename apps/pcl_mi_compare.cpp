@@ -38,11 +38,62 @@ using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 namespace {
 
 struct Pair {
-  std::string sequence;
-  int source_frame, target_frame;
+  std::string sequence;            // KITTI sequence, or "list" for -list rows
+  int source_frame, target_frame;  // KITTI frames, or the list row number for both
+  std::string source_path, target_path;
   Eigen::Matrix4d reference; // source to target
   Eigen::Matrix4d guess;
+  bool backward = false; // source = the earlier scan (a list row: its target)
 };
+
+/** Reads -list rows "SOURCE TARGET" + 12 or 16 numbers (the reference source-to-target
+ * transform, row-major), white space or commas, '#' comments; relative paths are relative to
+ * the list file. Each row yields (source, target, reference) as the forward pair. */
+bool
+readPairList(const std::string& path, std::vector<Pair>& rows, std::string& error)
+{
+  std::ifstream in(path);
+  if (!in) {
+    error = "cannot open '" + path + "'";
+    return false;
+  }
+  const auto slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "" : path.substr(0, slash + 1);
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream words(line);
+    std::string source, target;
+    if (!(words >> source) || source[0] == '#')
+      continue;
+    std::vector<double> v;
+    double x;
+    words >> target;
+    while (words >> x)
+      v.push_back(x);
+    if (target.empty() || !words.eof() || (v.size() != 12 && v.size() != 16)) {
+      error = "'" + path + "' line " + std::to_string(number) +
+              ": expected SOURCE TARGET and 12 or 16 numbers";
+      return false;
+    }
+    Pair p;
+    p.sequence = "list";
+    p.source_frame = p.target_frame = number;
+    p.source_path = source[0] == '/' ? source : dir + source;
+    p.target_path = target[0] == '/' ? target : dir + target;
+    p.reference.setIdentity();
+    for (std::size_t i = 0; i < v.size(); ++i)
+      p.reference(static_cast<int>(i / 4), static_cast<int>(i % 4)) = v[i];
+    rows.push_back(p);
+  }
+  if (rows.empty()) {
+    error = "'" + path + "' lists no pairs";
+    return false;
+  }
+  return true;
+}
 
 /** One CSV row: a (pair, method) result. */
 struct Row {
@@ -355,6 +406,9 @@ printHelp(const char* program)
       "Usage: %s -kitti DIR [options]\n"
       "       %s -merge A.csv B.csv ... [-csv ALL.csv] [-methods LIST]\n"
       "  -kitti DIR            KITTI odometry root (holds sequences/SS/...)\n"
+      "  -list FILE            instead of KITTI: rows 'SOURCE TARGET' + 12 or 16 numbers\n"
+      "                        (reference source-to-target 4x4, row-major); paths relative\n"
+      "                        to FILE; every row also runs backwards (swapped, inverse)\n"
       "  -sequences 00,02      sequences (default: 00,01,02,05,08)\n"
       "  -frames N             frames 0..N-1 of each sequence (default 10)\n"
       "  -poses semantic|gt    sequences/SS/poses.txt or poses/SS.txt (default semantic)\n"
@@ -458,10 +512,6 @@ main(int argc, char** argv)
     return 0;
   }
 
-  if (root.empty()) {
-    print_error("pcl_mi_compare: -kitti DIR is required (see -h)\n");
-    return 1;
-  }
   int shard = 1, shards = 1;
   if (!shard_arg.empty() &&
       (std::sscanf(shard_arg.c_str(), "%d/%d", &shard, &shards) != 2 || shards < 1 ||
@@ -480,80 +530,108 @@ main(int argc, char** argv)
     wanted_pairs[{sij[0], std::stoi(sij[1]), std::stoi(sij[2])}] = true;
   }
 
+  // Candidate pairs in their forward direction (source = the later scan), from KITTI or
+  // from a list.
+  std::vector<Pair> forward_pairs;
+  std::string list_path;
+  if (pcl::console::parse_argument(argc, argv, "-list", list_path) > 0) {
+    std::string error;
+    if (!readPairList(list_path, forward_pairs, error)) {
+      print_error("pcl_mi_compare: %s\n", error.c_str());
+      return 1;
+    }
+  }
+  else {
+    if (root.empty()) {
+      print_error("pcl_mi_compare: -kitti DIR or -list FILE is required (see -h)\n");
+      return 1;
+    }
+    for (const auto& seq : split(sequences_arg, ',')) {
+      Eigen::Matrix4d tr;
+      std::vector<Eigen::Matrix4d> poses;
+      std::string error =
+          pcl_mi::kitti::loadCalibrationTr(root + "/sequences/" + seq + "/calib.txt", tr);
+      if (error.empty())
+        error = pcl_mi::kitti::loadPoses(poses_kind == "gt" ? root + "/poses/" + seq + ".txt"
+                                                            : root + "/sequences/" + seq +
+                                                                  "/poses.txt",
+                                         poses);
+      if (!error.empty()) {
+        print_error("pcl_mi_compare: %s\n", error.c_str());
+        return 1;
+      }
+      const int n = std::min<int>(frames, static_cast<int>(poses.size()));
+      for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) {
+          const Eigen::Matrix4d t_ij =
+              pcl_mi::kitti::relativeVelodyneTransform(tr, poses[i], poses[j]);
+          const double dist = t_ij.topRightCorner<3, 1>().norm();
+          if (!wanted_pairs.empty() ? !wanted_pairs.count({seq, i, j})
+                                    : (dist < distance[0] || dist >= distance[1] ||
+                                       std::abs(yawDegrees(t_ij)) > max_yaw))
+            continue;
+          Pair p;
+          p.sequence = seq;
+          p.target_frame = i;
+          p.source_frame = j;
+          p.target_path = pcl_mi::kitti::scanPath(root, seq, i);
+          p.source_path = pcl_mi::kitti::scanPath(root, seq, j);
+          p.reference = t_ij;
+          forward_pairs.push_back(p);
+        }
+    }
+  }
+
   // Every shard enumerates the same pairs and draws the same perturbations, then keeps its
   // share, so shards together give exactly the rows of one unsharded run.
   std::mt19937 rng(seed);
   std::vector<Pair> pairs;
   std::map<std::string, Cloud::Ptr> clouds;
   int candidate = 0, enumerated = 0;
-  for (const auto& seq : split(sequences_arg, ',')) {
-    Eigen::Matrix4d tr;
-    std::vector<Eigen::Matrix4d> poses;
-    std::string error =
-        pcl_mi::kitti::loadCalibrationTr(root + "/sequences/" + seq + "/calib.txt", tr);
-    if (error.empty())
-      error = pcl_mi::kitti::loadPoses(poses_kind == "gt" ? root + "/poses/" + seq + ".txt"
-                                                          : root + "/sequences/" + seq +
-                                                                "/poses.txt",
-                                       poses);
-    if (!error.empty()) {
-      print_error("pcl_mi_compare: %s\n", error.c_str());
-      return 1;
-    }
-    const int n = std::min<int>(frames, static_cast<int>(poses.size()));
-    for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j) {
-        const Eigen::Matrix4d t_ij =
-            pcl_mi::kitti::relativeVelodyneTransform(tr, poses[i], poses[j]);
-        const double dist = t_ij.topRightCorner<3, 1>().norm();
-        if (!wanted_pairs.empty() ? !wanted_pairs.count({seq, i, j})
-                                  : (dist < distance[0] || dist >= distance[1] ||
-                                     std::abs(yawDegrees(t_ij)) > max_yaw))
-          continue;
-        if (candidate++ % stride)
-          continue;
-        for (int dir = 0; dir < 2; ++dir) {
-          if ((dir == 0 && directions == "backward") || (dir == 1 && directions == "forward"))
-            continue;
-          Pair p;
-          p.sequence = seq;
-          p.target_frame = dir == 0 ? i : j;
-          p.source_frame = dir == 0 ? j : i;
-          p.reference = dir == 0 ? t_ij : Eigen::Matrix4d(t_ij.inverse());
-          p.guess = Eigen::Matrix4d::Identity();
-          if (!perturb.empty()) {
-            std::uniform_real_distribution<double> unit(0.0, 1.0);
-            const double a = 2.0 * M_PI * unit(rng);
-            const double t = perturb.size() == 2
-                                 ? perturb[0]
-                                 : perturb[0] + (perturb[1] - perturb[0]) * unit(rng);
-            const double yaw_max = perturb.back();
-            const double yaw = perturb.size() == 2 ? (unit(rng) < 0.5 ? -yaw_max : yaw_max)
-                                                   : yaw_max * (2.0 * unit(rng) - 1.0);
-            Eigen::Affine3d d = Eigen::Translation3d(t * std::cos(a), t * std::sin(a), 0.0) *
-                                Eigen::AngleAxisd(yaw * M_PI / 180.0,
-                                                  Eigen::Vector3d::UnitZ());
-            p.guess = d.matrix() * p.reference;
-          }
-          if (enumerated++ % shards != shard - 1)
-            continue;
-          pairs.push_back(p);
-          for (int f : {i, j}) {
-            const std::string key = seq + "/" + std::to_string(f);
-            if (clouds.count(key))
-              continue;
-            pcl::PointCloud<pcl::PointXYZI> xyzi;
-            error = pcl_mi::io::loadCloud(pcl_mi::kitti::scanPath(root, seq, f), xyzi);
-            if (!error.empty()) {
-              print_error("pcl_mi_compare: %s\n", error.c_str());
-              return 1;
-            }
-            auto cloud = pcl::make_shared<Cloud>();
-            pcl::copyPointCloud(xyzi, *cloud);
-            clouds[key] = cloud;
-          }
-        }
+  for (const Pair& forward : forward_pairs) {
+    if (candidate++ % stride)
+      continue;
+    for (int dir = 0; dir < 2; ++dir) {
+      if ((dir == 0 && directions == "backward") || (dir == 1 && directions == "forward"))
+        continue;
+      Pair p = forward;
+      if (dir == 1) { // source = the earlier scan: the motion points backwards
+        p.backward = true;
+        std::swap(p.source_frame, p.target_frame);
+        std::swap(p.source_path, p.target_path);
+        p.reference = forward.reference.inverse();
       }
+      p.guess = Eigen::Matrix4d::Identity();
+      if (!perturb.empty()) {
+        std::uniform_real_distribution<double> unit(0.0, 1.0);
+        const double a = 2.0 * M_PI * unit(rng);
+        const double t = perturb.size() == 2
+                             ? perturb[0]
+                             : perturb[0] + (perturb[1] - perturb[0]) * unit(rng);
+        const double yaw_max = perturb.back();
+        const double yaw = perturb.size() == 2 ? (unit(rng) < 0.5 ? -yaw_max : yaw_max)
+                                               : yaw_max * (2.0 * unit(rng) - 1.0);
+        Eigen::Affine3d d = Eigen::Translation3d(t * std::cos(a), t * std::sin(a), 0.0) *
+                            Eigen::AngleAxisd(yaw * M_PI / 180.0, Eigen::Vector3d::UnitZ());
+        p.guess = d.matrix() * p.reference;
+      }
+      if (enumerated++ % shards != shard - 1)
+        continue;
+      pairs.push_back(p);
+      for (const std::string& path : {p.source_path, p.target_path}) {
+        if (clouds.count(path))
+          continue;
+        pcl::PointCloud<pcl::PointXYZI> xyzi;
+        const std::string error = pcl_mi::io::loadCloud(path, xyzi);
+        if (!error.empty()) {
+          print_error("pcl_mi_compare: %s\n", error.c_str());
+          return 1;
+        }
+        auto cloud = pcl::make_shared<Cloud>();
+        pcl::copyPointCloud(xyzi, *cloud);
+        clouds[path] = cloud;
+      }
+    }
   }
   if (pairs.empty()) {
     print_error("pcl_mi_compare: no pair matches the selection\n");
@@ -576,8 +654,8 @@ main(int argc, char** argv)
   const auto started = std::chrono::steady_clock::now();
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const Pair& p = pairs[k];
-    const auto& src = clouds[p.sequence + "/" + std::to_string(p.source_frame)];
-    const auto& tgt = clouds[p.sequence + "/" + std::to_string(p.target_frame)];
+    const auto& src = clouds[p.source_path];
+    const auto& tgt = clouds[p.target_path];
     const auto truth = pcl_mi::io::poseError(Eigen::Matrix4d::Identity(), p.reference);
     const auto initial = pcl_mi::io::poseError(p.guess, p.reference);
     std::printf("[%3zu/%zu] %s %d->%d %5.2f m:", k + 1, pairs.size(), p.sequence.c_str(),
@@ -587,7 +665,7 @@ main(int argc, char** argv)
       row.sequence = p.sequence;
       row.target = p.target_frame;
       row.source = p.source_frame;
-      row.direction = p.source_frame > p.target_frame ? "forward" : "backward";
+      row.direction = p.backward ? "backward" : "forward";
       row.true_translation = truth.translation;
       row.true_rotation = truth.rotation_deg;
       row.initial_translation = initial.translation;

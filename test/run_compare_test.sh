@@ -17,3 +17,11 @@ test -s "$work/plot_translation.png" && test -s "$work/plot_rotation.png"
 test "$(tail -n +2 "$work/all.csv" | wc -l)" -eq 16
 awk -F, 'NR > 1 && $9 ~ /^mi-/ { n++; if ($10 >= 0.15 || $11 >= 0.5) { print "MI row out of bound: " $0; bad++ } }
          END { if (n != 8 || bad) exit 1; print n " MI rows within 0.15 m / 0.5 deg" }' "$work/all.csv"
+
+# Generic input: the same pair as a -list row (absolute paths), run in both directions.
+printf '# source target reference(4x4)\n%s %s %s\n' \
+  "$data/kitti/sequences/00/velodyne/000009.bin" "$data/kitti/sequences/00/velodyne/000000.bin" \
+  "$(tr '\n' ' ' < "$data/kitti/reference_00_000009_to_000000.txt")" > "$work/list.txt"
+"$compare" -list "$work/list.txt" -methods mi-varz -csv "$work/list.csv"
+awk -F, 'NR > 1 { n++; if ($10 >= 0.15 || $11 >= 0.5) bad++ } END { if (n != 2 || bad) exit 1 }' "$work/list.csv"
+grep -q ",backward," "$work/list.csv"

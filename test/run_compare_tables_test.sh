@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The binning and table code on a small hand-made CSV (test/data/compare_small.csv):
+# means per 1 m / 2 deg bin, median runtime, success rate, and the summary.
+# Usage: run_compare_tables_test.sh COMPARE_BINARY CSV
+set -euo pipefail
+out=$("$1" -merge "$2" -methods mi-varz,gicp)
+echo "$out"
+expect() { echo "$out" | grep -Eq "$1" || { echo "missing line matching: $1"; exit 1; }; }
+# Translation: bin 1-2 m holds mi-varz 0.1, 0.3 (mean 0.2) and gicp 1.0, 3.0 (mean 2.0).
+expect '^1-2 m +0\.200 +2\.000 +2$'
+expect '^3-4 m +0\.050 +0\.200 +1$'
+# Rotation: bin 0-2 deg (initial 1 deg) and 4-6 deg (initial 5 deg).
+expect '^0-2 deg +0\.300 +3\.000 +2$'
+expect '^4-6 deg +0\.100 +0\.300 +1$'
+# Median runtime of bin 1-2 m: mi-varz (0.5, 0.7) -> 0.6, gicp (2, 4) -> 3.
+expect '^1-2 m +0\.600 +3\.000 +2$'
+# Success (< 0.5 m, < 2 deg): gicp fails both rows of bin 1-2 m (1.0 m and 3.0 m).
+expect '^1-2 m +100\.0 +0\.0 +2$'
+# Summary: 3 rows each; gicp 1 of 3 succeeds; median times 0.6 and 3.0 -> ratio 5.0x.
+expect '^mi-varz +3 +100\.0% +0\.150 '
+expect '^gicp +3 +33\.3% +1\.400 .* 5\.0x$'
