@@ -25,7 +25,7 @@ def read_rows(path):
 def boxplot(rows, initial_key, final_key, bin_width, unit, title, path):
     methods = list(dict.fromkeys(r["method"] for r in rows))
     bins = sorted({int(float(r[initial_key]) // bin_width) for r in rows})
-    fig, ax = plt.subplots(figsize=(max(6, 1.6 * len(bins) * max(1, len(methods)) / 2), 4.5))
+    fig, ax = plt.subplots(figsize=(min(13.0, max(6.0, 1.3 * len(bins) + 2.0)), 4.5))
     width = 0.8 / max(1, len(methods))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for m_index, method in enumerate(methods):
