@@ -676,13 +676,15 @@ main(int argc, char** argv)
         writeRow(csv, row);
       rows.push_back(row);
     }
+    // Rows reach the file pair by pair, so a run stopped early (a scheduler's time limit)
+    // keeps everything it finished.
+    if (csv.is_open())
+      csv.flush();
     const double elapsed =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     std::printf("  (eta %.0f s)\n", elapsed / (k + 1) * (pairs.size() - k - 1));
     std::fflush(stdout);
   }
-  if (csv.is_open())
-    csv.flush();
   printTables(rows, methods, success);
   return 0;
 }
