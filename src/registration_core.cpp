@@ -6,13 +6,16 @@
 #include "backend/scoring_backend.h"
 #include "core/mutual_information.h"
 #include "core/nelder_mead.h"
+#include "core/parallel.h"
 #include "core/pose.h"
+#include "core/refinement.h"
 #include "core/voxel_grid.h"
 
 #include <Eigen/Geometry>
 
 #include <cmath>
 #include <exception>
+#include <stdexcept>
 #include <thread>
 #include <sstream>
 
@@ -53,6 +56,7 @@ Parameters::paper()
   p.pyramid_levels = 1;
   p.source_subdivision = 0;
   p.restarts = 0;
+  p.refinement = Refinement::None;
   return p;
 }
 
@@ -84,13 +88,28 @@ Parameters::validate() const
     s << "pyramid levels must be 1..8, got " << pyramid_levels;
   else if (restarts < 0)
     s << "restarts must not be negative, got " << restarts;
+  else if (refinement != Refinement::None && refinement != Refinement::PointToDistribution)
+    s << "unknown refinement " << static_cast<int>(refinement);
+  else if (!(refinement_resolution > 0.0) || !std::isfinite(refinement_resolution))
+    s << "refinement resolution must be positive and finite, got " << refinement_resolution;
+  else if (refinement_max_iterations < 1)
+    s << "refinement iterations must be at least 1, got " << refinement_max_iterations;
   else if (!(restart_scale > 0.0) || !std::isfinite(restart_scale))
     s << "restart scale must be positive and finite, got " << restart_scale;
   return s.str();
 }
 
 /** Tolerance of pyramid level l > 0, relative to the finest level's: factor * 2^l. */
-constexpr double kCoarseToleranceFactor = 10.0;
+constexpr double kCoarseToleranceFactor = 30.0;
+
+/** Fewest points a target cube needs to give the refinement a distribution. */
+constexpr int kRefinementMinimumPoints = 4;
+/** Noise added to the refinement's target covariances, as a fraction of their cube edge. */
+constexpr double kRefinementNoiseFraction = 0.1;
+/** A refinement that moves the pose further than this (the MI resolution times this, and
+ * degrees) left the MI basin and is discarded. */
+constexpr double kRefinementMaxShift = 1.0;
+constexpr double kRefinementMaxTurnDeg = 5.0;
 
 /** Fewest finite points a cloud needs: MI over fewer occupied voxels says nothing. */
 constexpr std::size_t kMinimumPoints = 3;
@@ -106,15 +125,28 @@ struct RegistrationCore::Impl {
     double resolution = 1.0;
     std::shared_ptr<core::TargetGrid> grid;
     std::unique_ptr<backend::ScoringBackend> backend;
-    /** Coarsest level only: a second backend for the mirrored start, which may run on its
-     * own thread. */
+    /** A second backend for a concurrent search (the mirrored start). */
     std::unique_ptr<backend::ScoringBackend> mirror_backend;
     std::shared_ptr<const core::SourceSamples> samples;
   };
   std::vector<Level> levels;
+  /** The refinement's target distributions and source samples (when it is on). */
+  std::unique_ptr<core::TargetDistributions> distributions;
+  std::shared_ptr<const core::SourceSamples> refinement_samples;
   JointHistogram scratch;
 
-  /** Brings the local clouds, the target grid and the backend up to date. */
+  /** First pyramid level the MI search runs on. A refinement takes the place of the
+   * search on the finest level: from the next coarser level's optimum it converges to a
+   * finer alignment than the quantised finest-level MI, for a fraction of the evaluations. */
+  int
+  firstSearchedLevel() const
+  {
+    return parameters.refinement != Refinement::None && parameters.pyramid_levels > 1 ? 1 : 0;
+  }
+
+  /** Brings the local clouds, the source samples and the refinement's target up to date;
+   * the levels' grids and backends are built on first use (see level()). With two or more
+   * threads the target and the source are prepared concurrently. */
   bool
   prepare(std::string& error)
   {
@@ -126,56 +158,145 @@ struct RegistrationCore::Impl {
       error = "no source cloud was given";
       return false;
     }
-    const double gap = core::kOutlierGapVoxels * parameters.resolution;
-    if (target_dirty) {
-      levels.clear();
-      target = core::makeLocalCloud(target_input, gap);
-      if (target.points.size() < kMinimumPoints) {
-        error = describeTooFew("target", target);
-        return false;
-      }
-      for (int l = 0; l < parameters.pyramid_levels; ++l) {
-        Level level;
-        level.resolution = parameters.resolution * std::ldexp(1.0, l);
-        level.grid = std::make_shared<core::TargetGrid>();
-        if (!core::buildTargetGrid(target.points,
-                                   level.resolution,
-                                   parameters.feature,
-                                   levelBinning(level.resolution),
-                                   *level.grid,
-                                   error)) {
-          levels.clear();
-          return false;
+    const bool new_target = target_dirty, new_source = source_dirty || target_dirty;
+    std::string target_error, source_error;
+    std::vector<core::SourceSamples> pyramid;
+    bool target_ok = true, source_ok = true;
+    if (new_target && new_source && parameters.num_threads > 1) {
+      std::exception_ptr failure;
+      std::thread worker([&] {
+        try {
+          target_ok = prepareTarget(target_error);
         }
-        level.backend = backend::makeCpuBackend();
-        level.backend->setTarget(level.grid);
-        levels.push_back(std::move(level));
-      }
-      // The mirrored start runs only on the coarsest level.
-      levels.back().mirror_backend = backend::makeCpuBackend();
-      levels.back().mirror_backend->setTarget(levels.back().grid);
-      target_dirty = false;
-      source_dirty = true; // the new backends have no source yet
+        catch (...) {
+          failure = std::current_exception();
+        }
+      });
+      source_ok = prepareSource(pyramid, source_error);
+      worker.join();
+      if (failure)
+        std::rethrow_exception(failure);
     }
-    if (source_dirty) {
-      source = core::makeLocalCloud(source_input, gap);
-      if (source.points.size() < kMinimumPoints) {
-        error = describeTooFew("source", source);
-        return false;
-      }
-      for (Level& level : levels) {
-        const double cell = parameters.source_subdivision > 0
-                                ? level.resolution / parameters.source_subdivision
-                                : 0.0;
-        level.samples = std::make_shared<const core::SourceSamples>(
-            core::makeSourceSamples(source.points, cell));
-        level.backend->setSource(level.samples);
-        if (level.mirror_backend)
-          level.mirror_backend->setSource(level.samples);
-      }
+    else {
+      if (new_target)
+        target_ok = prepareTarget(target_error);
+      if (target_ok && new_source)
+        source_ok = prepareSource(pyramid, source_error);
+    }
+    if (!target_ok || !source_ok) {
+      error = !target_ok ? target_error : source_error;
+      return false;
+    }
+    target_dirty = false;
+    if (new_source) {
+      attachSamples(std::move(pyramid));
       source_dirty = false;
     }
     return true;
+  }
+
+  /** The target's local cloud, the (still empty) levels and the refinement's distributions. */
+  bool
+  prepareTarget(std::string& error)
+  {
+    levels.clear();
+    distributions.reset();
+    target = core::makeLocalCloud(target_input, core::kOutlierGapVoxels * parameters.resolution);
+    if (target.points.size() < kMinimumPoints) {
+      error = describeTooFew("target", target);
+      return false;
+    }
+    // Refuse a too-fine resolution up front, whichever levels this alignment builds.
+    core::GridGeometry finest;
+    if (!core::makeGridGeometry(target.points, parameters.resolution, finest, error))
+      return false;
+    levels.resize(static_cast<std::size_t>(parameters.pyramid_levels));
+    for (int l = 0; l < parameters.pyramid_levels; ++l)
+      levels[l].resolution = parameters.resolution * std::ldexp(1.0, l);
+    if (parameters.refinement == Refinement::PointToDistribution)
+      distributions = std::make_unique<core::TargetDistributions>(
+          target.points,
+          parameters.refinement_resolution,
+          kRefinementMinimumPoints,
+          kRefinementNoiseFraction * parameters.refinement_resolution);
+    return true;
+  }
+
+  /** The source's local cloud and its samples for every level (see attachSamples()). */
+  bool
+  prepareSource(std::vector<core::SourceSamples>& pyramid, std::string& error)
+  {
+    source = core::makeLocalCloud(source_input, core::kOutlierGapVoxels * parameters.resolution);
+    if (source.points.size() < kMinimumPoints) {
+      error = describeTooFew("source", source);
+      return false;
+    }
+    // One sort of the points serves every level: the coarser samples merge the finer.
+    const double cell = parameters.source_subdivision > 0
+                            ? parameters.resolution / parameters.source_subdivision
+                            : 0.0;
+    pyramid = core::makeSourceSamplePyramid(
+        source.points, cell, cell > 0.0 ? parameters.pyramid_levels - 1 : 0);
+    const double refinement_cell = parameters.refinement_resolution / 2.0;
+    refinement_samples.reset();
+    if (parameters.refinement == Refinement::PointToDistribution &&
+        std::abs(cell - refinement_cell) > 1e-9 * refinement_cell)
+      refinement_samples = std::make_shared<const core::SourceSamples>(
+          core::makeSourceSamples(source.points, refinement_cell));
+    return true;
+  }
+
+  /** Hands the source samples to the levels and their backends. */
+  void
+  attachSamples(std::vector<core::SourceSamples> pyramid)
+  {
+    std::vector<std::shared_ptr<const core::SourceSamples>> shared;
+    for (auto& samples : pyramid)
+      shared.push_back(std::make_shared<const core::SourceSamples>(std::move(samples)));
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+      Level& level = levels[l];
+      // Without subdivision every level moves the same points.
+      level.samples = shared[std::min(l, shared.size() - 1)];
+      if (level.backend)
+        level.backend->setSource(level.samples);
+      if (level.mirror_backend)
+        level.mirror_backend->setSource(level.samples);
+    }
+    if (parameters.refinement == Refinement::PointToDistribution && !refinement_samples)
+      refinement_samples = levels[0].samples;
+  }
+
+  /** Pyramid level \a l with its grid and backend built (after a successful prepare()).
+   * Throws std::runtime_error if the grid cannot be built, which prepare() has ruled out. */
+  Level&
+  level(int l)
+  {
+    Level& level = levels[static_cast<std::size_t>(l)];
+    if (!level.backend) {
+      level.grid = std::make_shared<core::TargetGrid>();
+      std::string error;
+      if (!core::buildTargetGrid(target.points, level.resolution, parameters.feature,
+                                 levelBinning(level.resolution), *level.grid, error))
+        throw std::runtime_error(error);
+      level.backend = backend::makeCpuBackend();
+      level.backend->setTarget(level.grid);
+      level.backend->setSource(level.samples);
+    }
+    return level;
+  }
+
+  /** The second backend of level \a l, for a search running concurrently with one on
+   * the first. */
+  backend::ScoringBackend&
+  mirrorBackend(int l)
+  {
+    Level& lv = level(l);
+    if (!lv.mirror_backend) {
+      lv.mirror_backend = backend::makeCpuBackend();
+      lv.mirror_backend->setTarget(lv.grid);
+      lv.mirror_backend->setSource(lv.samples);
+    }
+    return *lv.mirror_backend;
   }
 
   /** Binning at a pyramid level. Point counts grow with the voxel's surface area, so the
@@ -207,7 +328,7 @@ struct RegistrationCore::Impl {
   double
   mutualInformation(const Eigen::Matrix4d& pose, JointHistogram& histogram, int level = 0)
   {
-    return mutualInformation(pose, histogram, *levels[level].backend);
+    return mutualInformation(pose, histogram, *this->level(level).backend);
   }
 
   /** The same on a given backend (each concurrent search owns one). */
@@ -254,6 +375,11 @@ RegistrationCore::setParameters(const Parameters& parameters)
   }
   if (old.source_subdivision != parameters.source_subdivision)
     impl_->source_dirty = true;
+  if (old.refinement != parameters.refinement ||
+      old.refinement_resolution != parameters.refinement_resolution) {
+    impl_->target_dirty = true;
+    impl_->source_dirty = true;
+  }
   impl_->parameters = parameters;
   return {};
 }
@@ -399,30 +525,32 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   // symmetric about the guess: backward motion is found as well as forward motion. The two
   // starts are independent and split the iteration budget in fixed shares, so running them
   // on two threads gives the same result as running them one after the other.
+  const int first_level = d.firstSearchedLevel();
   int level = static_cast<int>(d.levels.size()) - 1;
   const Eigen::VectorXd origin = Eigen::VectorXd::Zero(n);
   core::NelderMeadResult forward, mirrored;
   const int mirrored_cap = p.symmetric_start ? budget / 2 : 0;
   const int forward_cap = budget - mirrored_cap;
   if (p.symmetric_start && p.num_threads > 1) {
+    backend::ScoringBackend& mirror_backend = d.mirrorBackend(level);
     std::exception_ptr failure;
     std::thread mirror([&] {
       try {
-        mirrored = search(level, *d.levels[level].mirror_backend, origin, -steps, mirrored_cap);
+        mirrored = search(level, mirror_backend, origin, -steps, mirrored_cap);
       }
       catch (...) {
         failure = std::current_exception();
       }
     });
-    forward = search(level, *d.levels[level].backend, origin, steps, forward_cap);
+    forward = search(level, *d.level(level).backend, origin, steps, forward_cap);
     mirror.join();
     if (failure)
       std::rethrow_exception(failure);
   }
   else {
-    forward = search(level, *d.levels[level].backend, origin, steps, forward_cap);
+    forward = search(level, *d.level(level).backend, origin, steps, forward_cap);
     if (p.symmetric_start)
-      mirrored = search(level, *d.levels[level].backend, origin, -steps, mirrored_cap);
+      mirrored = search(level, *d.level(level).backend, origin, -steps, mirrored_cap);
   }
   account(forward);
   if (p.symmetric_start)
@@ -431,27 +559,72 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   // away from the fine peak: the first finer level refines both the coarse optimum and the
   // guess itself.
   std::vector<Eigen::VectorXd> candidates{best.x};
-  if (level > 0 && (best.x.cwiseAbs().array() > tolerance.array() * kCoarseToleranceFactor).any())
+  if (level > first_level &&
+      (best.x.cwiseAbs().array() > tolerance.array() * kCoarseToleranceFactor).any())
     candidates.push_back(origin);
 
-  // Each finer level refines the candidates with a smaller simplex; the costs of two levels
-  // are not comparable, so each level keeps its own best, which the next level refines.
-  while (level > 0) {
+  // Each finer level refines the candidates with a simplex half the size of the previous
+  // level's; the costs of two levels are not comparable, so each level keeps its own best,
+  // which the next level refines. Restarts around the best vertex, with simplices of
+  // alternating orientation, then lift the finest search out of the small local optima that
+  // voxel quantisation scatters near the peak.
+  double scale = p.restart_scale;
+  while (level > first_level) {
     --level;
     have_best = false;
-    for (const Eigen::VectorXd& x : candidates)
-      account(search(level, *d.levels[level].backend, x, p.restart_scale * steps, budget));
+    if (candidates.size() == 2) {
+      // Two independent searches with fixed budget shares, concurrent when threads allow:
+      // the same result either way.
+      core::NelderMeadResult from_best, from_guess;
+      const int cap = std::max(budget / 2, 0);
+      backend::ScoringBackend& first = *d.level(level).backend;
+      backend::ScoringBackend& second = d.mirrorBackend(level);
+      core::parallelFor(2, p.num_threads, [&](int k) {
+        if (k == 0)
+          from_best = search(level, first, candidates[0], scale * steps, cap);
+        else
+          from_guess = search(level, second, candidates[1], scale * steps, cap);
+      });
+      account(from_best);
+      account(from_guess);
+    }
+    else {
+      account(search(level, *d.level(level).backend, candidates[0], scale * steps, budget));
+    }
     candidates = {best.x};
+    if (level > first_level)
+      scale *= 0.5;
   }
-  // Restarts around the best vertex, with a smaller simplex of alternating orientation, lift
-  // the search out of the small local optima that voxel quantisation scatters near the peak.
   for (int k = 0; k < p.restarts && budget > 0; ++k)
-    account(search(level, *d.levels[level].backend, best.x,
-                   (k % 2 ? p.restart_scale : -p.restart_scale) * steps, budget));
+    account(search(level, *d.level(level).backend, best.x,
+                   (k % 2 ? scale : -scale) * steps, budget));
 
   result.converged = best.converged;
   result.mutual_information = -best.value;
   result.transformation = core::transformFromParameters(fullParameters(best.x), guess, pivot);
+  if (p.refinement == Refinement::PointToDistribution) {
+    // In the local frames: target_local = R * source_local + t.
+    const Eigen::Matrix3d r = result.transformation.topLeftCorner<3, 3>();
+    const Eigen::Vector3d t =
+        r * d.source.centroid + result.transformation.topRightCorner<3, 1>() - d.target.centroid;
+    core::RefinementOptions options;
+    options.max_iterations = p.refinement_max_iterations;
+    options.num_threads = p.num_threads;
+    for (int i = 0; i < 6; ++i)
+      options.active[i] = p.simplex_steps[i] != 0.0;
+    const core::RefinementResult refined =
+        core::refineToDistributions(*d.distributions, *d.refinement_samples, r, t, options);
+    const double turn_deg =
+        Eigen::AngleAxisd(refined.rotation * r.transpose()).angle() * 180.0 / M_PI;
+    if ((refined.translation - t).norm() <= kRefinementMaxShift * p.resolution &&
+        turn_deg <= kRefinementMaxTurnDeg) {
+      result.refinement_iterations = refined.iterations;
+      result.transformation.topLeftCorner<3, 3>() = refined.rotation;
+      result.transformation.topRightCorner<3, 1>() =
+          refined.translation - refined.rotation * d.source.centroid + d.target.centroid;
+      result.mutual_information = d.mutualInformation(result.transformation, histogram);
+    }
+  }
   return result;
 }
 

@@ -61,8 +61,8 @@ planarMotion(double x, double y, double yaw_deg)
 }
 
 /** The acceptance bound of the registration tests. */
-constexpr double kMaxTranslationError = 0.15; // m
-constexpr double kMaxRotationErrorDeg = 0.5;
+constexpr double kMaxTranslationError = 0.08; // m
+constexpr double kMaxRotationErrorDeg = 0.2;
 
 #define EXPECT_POSE_NEAR(estimate, reference)                                              \
   do {                                                                                     \

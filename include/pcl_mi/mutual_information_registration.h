@@ -153,6 +153,15 @@ public:
     return core_.parameters().rotation_tolerance;
   }
 
+  /** \brief Refinement after the MI search (pcl_mi::Parameters::refinement). */
+  void
+  setRefinement(pcl_mi::Refinement refinement);
+  pcl_mi::Refinement
+  getRefinement() const
+  {
+    return core_.parameters().refinement;
+  }
+
   /** \brief Replaces all parameters at once; refused (PCL_ERROR, old values kept) if any is
    * invalid. setMaximumIterations() is taken from \a parameters.max_iterations. */
   bool
@@ -180,6 +189,14 @@ public:
   getNumberOfEvaluations() const
   {
     return result_.evaluations;
+  }
+
+  /** \brief Gauss-Newton iterations of the last align()'s refinement (0 when it was off
+   * or discarded). */
+  int
+  getNumberOfRefinementIterations() const
+  {
+    return result_.refinement_iterations;
   }
 
   /** \brief Why the last align() failed; empty after a successful one. */
@@ -218,6 +235,7 @@ protected:
   using Base::target_cloud_updated_;
   using Base::target_;
   using Base::transformation_;
+  using Base::tree_;
 
   void
   computeTransformation(PointCloudSource& output, const Matrix4& guess) override;

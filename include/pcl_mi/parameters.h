@@ -28,6 +28,12 @@ operator<<(std::ostream& os, Feature feature)
   return os << featureName(feature);
 }
 
+/** \brief Local refinement applied to the optimum of the MI search. */
+enum class Refinement {
+  None,                ///< the MI optimum as found (the paper's method)
+  PointToDistribution  ///< Gauss-Newton on the target's voxel distributions (see Parameters)
+};
+
 /** \brief How the value of an occupied voxel maps to a histogram bin.
  *
  * Bin 0 is reserved for unoccupied voxels (the paper's "no feature" value). An occupied
@@ -51,9 +57,10 @@ struct FeatureBinning {
  *
  * The cost is the paper's (Mehta, McBride, Pandey, "Robust and Fast 3D Scan Alignment using
  * Mutual Information"): 1 m voxels, variance of z, the anisotropic initial simplex
- * [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]. The defaults add a mirrored start, a coarse-to-fine
- * pyramid, restarts and a sampled source (symmetric_start, pyramid_levels, restarts,
- * source_subdivision); Parameters::paper() turns them off.
+ * [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]. The defaults search it from a mirrored pair of starts
+ * on a coarse-to-fine pyramid (4 m, 2 m) with a sampled source, and refine the optimum
+ * against the target's local distributions (symmetric_start, pyramid_levels,
+ * source_subdivision, refinement); Parameters::paper() turns all of that off.
  */
 struct Parameters {
   /** Voxel edge length R_v in the clouds' units (metres). */
@@ -73,8 +80,10 @@ struct Parameters {
   bool symmetric_start = true;
   /** Levels of the coarse-to-fine voxel pyramid. Level l uses resolution * 2^l; the search
    * starts on the coarsest level, whose smoother cost has a wider basin, and refines the
-   * optimum on each finer level. 1 = the paper's single resolution. */
-  int pyramid_levels = 2;
+   * optimum on each finer level. With a refinement (and more than one level) the
+   * refinement takes the place of the search on the finest level. 1 = the paper's single
+   * resolution. */
+  int pyramid_levels = 3;
   /** The source enters each evaluation as samples: the points of each cube of edge
    * (level resolution / source_subdivision) summarised by count, centroid and covariance.
    * 0 = every point on its own (the paper's exact evaluation). */
@@ -82,21 +91,34 @@ struct Parameters {
   /** Threads one alignment may use: with 2 or more, the two starts of the symmetric search
    * run concurrently. The result is the same for any number of threads. */
   int num_threads = 2;
-  /** Number of restarts around the best vertex after the first search(es), each with the
-   * initial steps scaled by restart_scale and alternating in sign. */
-  int restarts = 2;
-  /** Scale of the restart and level-refinement simplices relative to simplex_steps. */
+  /** Number of restarts around the best vertex on the finest searched level, each with
+   * that level's steps, alternating in sign. Without a refinement, 2 restarts lift the
+   * search out of the local optima the voxel quantisation scatters near the peak. */
+  int restarts = 0;
+  /** Scale, relative to simplex_steps, of the simplex with which the second-coarsest level
+   * refines the coarsest level's optimum; each finer level halves it. */
   double restart_scale = 0.25;
+  /** Refinement after the MI search. MI finds the basin from far away but its optimum is
+   * quantised by the voxel grid; the refinement moves the source samples onto the
+   * target's local surfaces (mean and covariance per cube of edge refinement_resolution),
+   * a smooth cost that converges in a few Gauss-Newton steps from within the basin. A
+   * refinement that moves the pose by more than resolution or 5 degrees is discarded. */
+  Refinement refinement = Refinement::PointToDistribution;
+  /** Cube edge (m) of the target distributions and source samples of the refinement. */
+  double refinement_resolution = 0.5;
+  /** Most Gauss-Newton iterations of the refinement. */
+  int refinement_max_iterations = 20;
   /** Maximum number of Nelder-Mead iterations, summed over all starts and restarts. */
   int max_iterations = 1000;
-  /** The simplex has converged once every vertex lies within this distance (m) of the best
-   * vertex in each translation parameter ... */
+  /** The simplex on the finest level has converged once every vertex lies within this
+   * distance (m) of the best vertex in each translation parameter (coarser levels l use
+   * 30 * 2^l times the tolerances: they only have to land in the next level's basin) ... */
   double translation_tolerance = 0.005;
   /** ... and within this angle (rad) in each rotation parameter. */
   double rotation_tolerance = 0.0005;
 
   /** \brief The paper's exact method: one simplex from the guess, one grid, every source
-   * point in every evaluation; no mirrored start, pyramid or restarts. */
+   * point in every evaluation; no mirrored start, pyramid, restarts or refinement. */
   static Parameters
   paper();
 
@@ -123,6 +145,8 @@ struct AlignmentResult {
   int iterations = 0;
   /** Cost (mutual information) evaluations performed. */
   int evaluations = 0;
+  /** Gauss-Newton iterations of the refinement (0 when off or discarded). */
+  int refinement_iterations = 0;
   /** Mutual information (nats) at the final transformation. */
   double mutual_information = 0.0;
   /** Empty on success, otherwise why the alignment failed. */

@@ -38,5 +38,12 @@ struct SourceSamples {
 SourceSamples
 makeSourceSamples(const PointList& points, double cell_size);
 
+/** \brief Summarises \a points per cube of edge \a cell_size and then per cube of edge
+ * cell_size * 2^k for k = 1 .. \a coarser, merging the finer summaries (same count, centroid
+ * and covariance as summarising the points directly, up to rounding), so the points are
+ * sorted once however many levels there are. Element k has cell size cell_size * 2^k. */
+std::vector<SourceSamples>
+makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser);
+
 } // namespace core
 } // namespace pcl_mi

@@ -83,12 +83,10 @@ makeLocalCloud(const PointList& points, double outlier_gap)
 }
 
 bool
-buildTargetGrid(const PointList& points,
-                double resolution,
-                Feature feature,
-                const FeatureBinning& binning,
-                TargetGrid& grid,
-                std::string& error)
+makeGridGeometry(const PointList& points,
+                 double resolution,
+                 GridGeometry& g,
+                 std::string& error)
 {
   if (points.empty()) {
     error = "the target has no usable points";
@@ -99,7 +97,6 @@ buildTargetGrid(const PointList& points,
     min = min.cwiseMin(p);
     max = max.cwiseMax(p);
   }
-  GridGeometry& g = grid.geometry;
   g.resolution = static_cast<float>(resolution);
   const Eigen::Vector3d first = (min.cast<double>() / resolution).array().floor();
   const Eigen::Vector3d last = (max.cast<double>() / resolution).array().floor();
@@ -114,6 +111,20 @@ buildTargetGrid(const PointList& points,
   }
   g.dims = dims.cast<int>();
   g.origin = (first * resolution).cast<float>();
+  return true;
+}
+
+bool
+buildTargetGrid(const PointList& points,
+                double resolution,
+                Feature feature,
+                const FeatureBinning& binning,
+                TargetGrid& grid,
+                std::string& error)
+{
+  GridGeometry& g = grid.geometry;
+  if (!makeGridGeometry(points, resolution, g, error))
+    return false;
   grid.feature = feature;
   grid.binning = binning;
 

@@ -76,6 +76,14 @@ struct TargetGrid {
   std::vector<OccupiedVoxel> occupied;
 };
 
+/** \brief The grid covering \a points at \a resolution. False (with \a error) when the
+ * cloud is empty or the grid would need more than kMaxGridCells voxels. */
+bool
+makeGridGeometry(const PointList& points,
+                 double resolution,
+                 GridGeometry& geometry,
+                 std::string& error);
+
 /** \brief Builds the target grid from local points. False (with \a error) when the cloud
  * is empty or its extent needs more than kMaxGridCells voxels at this resolution. */
 bool

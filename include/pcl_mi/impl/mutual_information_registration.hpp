@@ -7,6 +7,71 @@
 
 #include <pcl/common/transforms.h>
 #include <pcl/console/print.h>
+#include <pcl/search/kdtree.h>
+
+namespace pcl_mi {
+namespace detail {
+
+/** \brief A k-d tree that is built on its first query instead of in setInputCloud().
+ *
+ * pcl::Registration::align() hands every new target to its search tree, but the MI
+ * registration never searches it: only getFitnessScore() does. Building a FLANN tree over
+ * a 120k-point scan costs about as much as a whole alignment, so it is deferred until
+ * someone asks. Not safe for concurrent first queries (neither is the base class). */
+template <typename PointT>
+class LazyKdTree : public pcl::search::KdTree<PointT> {
+public:
+  using Base = pcl::search::KdTree<PointT>;
+  using typename Base::IndicesConstPtr;
+  using typename Base::PointCloudConstPtr;
+  using Base::nearestKSearch;
+  using Base::radiusSearch;
+
+  void
+  setInputCloud(const PointCloudConstPtr& cloud,
+                const IndicesConstPtr& indices = IndicesConstPtr()) override
+  {
+    this->input_ = cloud;
+    this->indices_ = indices;
+    built_ = false;
+  }
+
+  int
+  nearestKSearch(const PointT& point,
+                 int k,
+                 pcl::Indices& k_indices,
+                 std::vector<float>& k_sqr_distances) const override
+  {
+    build();
+    return Base::nearestKSearch(point, k, k_indices, k_sqr_distances);
+  }
+
+  int
+  radiusSearch(const PointT& point,
+               double radius,
+               pcl::Indices& k_indices,
+               std::vector<float>& k_sqr_distances,
+               unsigned int max_nn = 0) const override
+  {
+    build();
+    return Base::radiusSearch(point, radius, k_indices, k_sqr_distances, max_nn);
+  }
+
+private:
+  void
+  build() const
+  {
+    if (built_ || !this->input_)
+      return;
+    const_cast<LazyKdTree*>(this)->Base::setInputCloud(this->input_, this->indices_);
+    built_ = true;
+  }
+
+  mutable bool built_ = false;
+};
+
+} // namespace detail
+} // namespace pcl_mi
 
 namespace pcl {
 
@@ -15,6 +80,8 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::
     MutualInformationRegistration()
 {
   reg_name_ = "MutualInformationRegistration";
+  // align() would otherwise build a k-d tree over every new target that MI never uses.
+  tree_.reset(new pcl_mi::detail::LazyKdTree<PointTarget>);
   max_iterations_ = core_.parameters().max_iterations;
 }
 
@@ -153,6 +220,14 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfRest
     int restarts)
 {
   updateParameters("setNumberOfRestarts", [&](pcl_mi::Parameters& p) { p.restarts = restarts; });
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRefinement(
+    pcl_mi::Refinement refinement)
+{
+  updateParameters("setRefinement", [&](pcl_mi::Parameters& p) { p.refinement = refinement; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>

@@ -1,0 +1,208 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "core/refinement.h"
+
+#include "core/parallel.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+/** 21 bits per axis: cubes further than 2^21 cells from the origin never match. */
+constexpr int kKeyBits = 21;
+constexpr std::int64_t kKeyLimit = std::int64_t{1} << kKeyBits;
+
+std::uint64_t
+mix(std::uint64_t key)
+{
+  // splitmix64's finaliser: spreads the packed cell coordinates over the table.
+  key ^= key >> 30;
+  key *= 0xbf58476d1ce4e5b9ULL;
+  key ^= key >> 27;
+  key *= 0x94d049bb133111ebULL;
+  key ^= key >> 31;
+  return key;
+}
+
+} // namespace
+
+std::uint64_t
+TargetDistributions::keyOf(const Eigen::Vector3f& p, bool& inside) const
+{
+  const Eigen::Vector3f c = (p - origin_) / static_cast<float>(cell_size_);
+  inside = (c.array() >= 0.0f).all() && (c.array() < static_cast<float>(kKeyLimit)).all();
+  if (!inside)
+    return 0;
+  const auto x = static_cast<std::uint64_t>(c.x());
+  const auto y = static_cast<std::uint64_t>(c.y());
+  const auto z = static_cast<std::uint64_t>(c.z());
+  return (z << (2 * kKeyBits)) | (y << kKeyBits) | x;
+}
+
+TargetDistributions::TargetDistributions(const PointList& points,
+                                         double cell_size,
+                                         int min_points,
+                                         double noise_sigma)
+: cell_size_(cell_size), origin_(Eigen::Vector3f::Zero())
+{
+  if (points.empty())
+    return;
+  origin_ = points.front();
+  for (const auto& p : points)
+    origin_ = origin_.cwiseMin(p);
+  // Cells are the same as makeSourceSamples' (origin at the minimum), so its per-cell
+  // centroid and covariance are exactly the statistics needed here.
+  const SourceSamples cells = makeSourceSamples(points, cell_size);
+  const float noise = static_cast<float>(noise_sigma * noise_sigma);
+  for (const SourceSample& s : cells.samples) {
+    if (s.count < static_cast<std::uint32_t>(std::max(min_points, 1)))
+      continue;
+    Eigen::Matrix3f c;
+    c << s.covariance[0], s.covariance[1], s.covariance[2], //
+        s.covariance[1], s.covariance[3], s.covariance[4],  //
+        s.covariance[2], s.covariance[4], s.covariance[5];
+    c.diagonal().array() += noise;
+    distributions_.push_back({s.position, c.inverse()});
+  }
+  std::size_t capacity = 16;
+  while (capacity < 2 * distributions_.size())
+    capacity *= 2;
+  mask_ = capacity - 1;
+  table_.assign(capacity, {0, -1});
+  for (std::size_t i = 0; i < distributions_.size(); ++i) {
+    bool inside = false;
+    const std::uint64_t key = keyOf(distributions_[i].mean, inside) + 1;
+    for (std::uint64_t slot = mix(key) & mask_;; slot = (slot + 1) & mask_) {
+      if (table_[slot].first == 0) {
+        table_[slot] = {key, static_cast<std::int32_t>(i)};
+        break;
+      }
+    }
+  }
+}
+
+int
+TargetDistributions::find(const Eigen::Vector3f& p) const
+{
+  if (distributions_.empty())
+    return -1;
+  bool inside = false;
+  const std::uint64_t key = keyOf(p, inside) + 1;
+  if (!inside)
+    return -1;
+  for (std::uint64_t slot = mix(key) & mask_;; slot = (slot + 1) & mask_) {
+    if (table_[slot].first == key)
+      return table_[slot].second;
+    if (table_[slot].first == 0)
+      return -1;
+  }
+}
+
+RefinementResult
+refineToDistributions(const TargetDistributions& target,
+                      const SourceSamples& source,
+                      const Eigen::Matrix3d& rotation,
+                      const Eigen::Vector3d& translation,
+                      const RefinementOptions& options)
+{
+  RefinementResult result;
+  result.rotation = rotation;
+  result.translation = translation;
+  using Matrix6d = Eigen::Matrix<double, 6, 6>;
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  const float c2 = static_cast<float>(options.kernel_scale * options.kernel_scale);
+  // A fixed number of chunks, summed in order, whatever the thread count.
+  constexpr int kChunks = 8;
+  struct Partial {
+    // Float within a chunk of a few thousand samples is ample for Gauss-Newton steps.
+    Eigen::Matrix<float, 6, 6> h;
+    Eigen::Matrix<float, 6, 1> g;
+    std::size_t matched;
+  };
+  std::vector<Partial> partials(kChunks);
+  const std::size_t n = source.samples.size();
+  for (int it = 0; it < options.max_iterations; ++it) {
+    const Eigen::Matrix3f r = result.rotation.cast<float>();
+    const Eigen::Vector3f t = result.translation.cast<float>();
+    parallelFor(kChunks, options.num_threads, [&](int chunk) {
+      Partial& p = partials[static_cast<std::size_t>(chunk)];
+      p.h.setZero();
+      p.g.setZero();
+      p.matched = 0;
+      const std::size_t end = n * (chunk + 1) / kChunks;
+      for (std::size_t i = n * chunk / kChunks; i < end; ++i) {
+        const Eigen::Vector3f q = r * source.samples[i].position + t;
+        const int k = target.find(q);
+        if (k < 0)
+          continue;
+        const TargetDistributions::Distribution& dist = target[k];
+        const Eigen::Vector3f e = q - dist.mean;
+        const Eigen::Matrix3f& info = dist.information;
+        const float m = e.dot(info * e);
+        // Cauchy weight: residuals far beyond the kernel scale barely pull.
+        const float w = 1.0f / (1.0f + m / c2);
+        // Residual e(xi) = exp(xi) q - mean with left increment xi = [omega, delta]:
+        // de/domega = -[q]x, de/ddelta = I.
+        Eigen::Matrix<float, 3, 6> j;
+        j << 0.0f, q.z(), -q.y(), 1.0f, 0.0f, 0.0f, //
+            -q.z(), 0.0f, q.x(), 0.0f, 1.0f, 0.0f,  //
+            q.y(), -q.x(), 0.0f, 0.0f, 0.0f, 1.0f;
+        const Eigen::Matrix<float, 6, 3> jt_info = j.transpose() * info;
+        p.h.noalias() += w * (jt_info * j);
+        p.g.noalias() += w * (jt_info * e);
+        ++p.matched;
+      }
+    });
+    Matrix6d h = Matrix6d::Zero();
+    Vector6d g = Vector6d::Zero();
+    std::size_t matched = 0;
+    for (const Partial& p : partials) {
+      h += p.h.cast<double>();
+      g += p.g.cast<double>();
+      matched += p.matched;
+    }
+    // Pinned parameters: xi = [omega, delta] holds rotations first.
+    for (int i = 0; i < 6; ++i) {
+      if (options.active[i < 3 ? i + 3 : i - 3])
+        continue;
+      h.row(i).setZero();
+      h.col(i).setZero();
+      h(i, i) = 1.0;
+      g[i] = 0.0;
+    }
+    result.correspondences = matched;
+    if (matched < 6)
+      break;
+    const Vector6d xi = h.ldlt().solve(-g);
+    if (!xi.allFinite())
+      break;
+    const Eigen::Vector3d omega = xi.head<3>();
+    const double angle = omega.norm();
+    const Eigen::Matrix3d dr =
+        angle > 0.0 ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix()
+                    : Eigen::Matrix3d::Identity();
+    result.rotation = dr * result.rotation;
+    result.translation = dr * result.translation + xi.tail<3>();
+    result.iterations = it + 1;
+    if (angle < options.rotation_epsilon && xi.tail<3>().norm() < options.translation_epsilon) {
+      result.converged = true;
+      break;
+    }
+  }
+  // Keep the rotation orthonormal after many small updates.
+  const Eigen::Quaterniond q(result.rotation);
+  result.rotation = q.normalized().toRotationMatrix();
+  return result;
+}
+
+} // namespace core
+} // namespace pcl_mi

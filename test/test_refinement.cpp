@@ -1,0 +1,122 @@
+/*
+ * The source-sample pyramid and the point-to-distribution refinement on a real scan.
+ */
+#include "core/refinement.h"
+#include "core/source_samples.h"
+#include "core/voxel_grid.h"
+
+#include <pcl_mi/io.h>
+#include <pcl_mi/kitti.h>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+using namespace pcl_mi;
+using namespace pcl_mi::core;
+
+namespace {
+
+PointList
+bundledScan()
+{
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  EXPECT_EQ(io::loadCloud(kitti::scanPath(std::string(PCL_MI_DATA_DIR) + "/kitti", "00", 0),
+                          cloud),
+            "");
+  PointList points;
+  for (const auto& p : cloud)
+    points.emplace_back(p.x, p.y, p.z);
+  return makeLocalCloud(points, 64.0).points;
+}
+
+} // namespace
+
+TEST(SourceSamplePyramid, MergedLevelsMatchDirectSummaries)
+{
+  const PointList points = bundledScan();
+  const auto pyramid = makeSourceSamplePyramid(points, 0.25, 2);
+  ASSERT_EQ(pyramid.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(k);
+    const SourceSamples direct = makeSourceSamples(points, 0.25 * (1 << k));
+    const SourceSamples& merged = pyramid[static_cast<std::size_t>(k)];
+    EXPECT_DOUBLE_EQ(merged.cell_size, direct.cell_size);
+    // Both are sorted by the same cell key; a centroid rounding across a cell border can
+    // split or join a cell, which is rare.
+    ASSERT_NEAR(static_cast<double>(merged.samples.size()),
+                static_cast<double>(direct.samples.size()), 0.002 * direct.samples.size());
+    std::size_t same = 0, total = 0;
+    Eigen::Vector3d sum_merged = Eigen::Vector3d::Zero(), sum_direct = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < merged.samples.size(); ++i) {
+      total += merged.samples[i].count;
+      sum_merged += merged.samples[i].count * merged.samples[i].position.cast<double>();
+    }
+    for (const auto& s : direct.samples)
+      sum_direct += s.count * s.position.cast<double>();
+    EXPECT_EQ(total, points.size());
+    EXPECT_LT((sum_merged - sum_direct).norm() / points.size(), 1e-5);
+    for (std::size_t i = 0; i < std::min(merged.samples.size(), direct.samples.size()); ++i) {
+      const SourceSample& a = merged.samples[i];
+      const SourceSample& b = direct.samples[i];
+      if (a.count != b.count || (a.position - b.position).norm() > 1e-4f)
+        continue;
+      ++same;
+      for (int c = 0; c < 6; ++c)
+        EXPECT_NEAR(a.covariance[c], b.covariance[c], 1e-4);
+    }
+    EXPECT_GT(same, direct.samples.size() * 95 / 100);
+  }
+}
+
+TEST(Refinement, RecoversAKnownOffsetOfARealScan)
+{
+  const PointList points = bundledScan();
+  const TargetDistributions target(points, 0.5, 4, 0.05);
+  ASSERT_GT(target.size(), 1000u);
+  const SourceSamples source = makeSourceSamples(points, 0.25);
+  // Start 0.3 m and 1.5 degrees away from the truth (identity), roughly where the MI search
+  // on the 2 m level ends.
+  const Eigen::Matrix3d start_r =
+      Eigen::AngleAxisd(1.5 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d start_t(0.25, -0.15, 0.05);
+  RefinementOptions options;
+  options.num_threads = 2;
+  const RefinementResult r = refineToDistributions(target, source, start_r, start_t, options);
+  EXPECT_GT(r.correspondences, source.samples.size() / 2);
+  EXPECT_LT(r.translation.norm(), 0.02);
+  EXPECT_LT(Eigen::AngleAxisd(r.rotation).angle() * 180.0 / M_PI, 0.1);
+
+  // The same with one thread: bit-identical.
+  options.num_threads = 1;
+  const RefinementResult serial = refineToDistributions(target, source, start_r, start_t, options);
+  EXPECT_EQ(serial.rotation, r.rotation);
+  EXPECT_EQ(serial.translation, r.translation);
+  EXPECT_EQ(serial.iterations, r.iterations);
+}
+
+TEST(Refinement, KeepsPinnedParameters)
+{
+  const PointList points = bundledScan();
+  const TargetDistributions target(points, 0.5, 4, 0.05);
+  const SourceSamples source = makeSourceSamples(points, 0.25);
+  RefinementOptions options;
+  options.active << true, true, false, false, false, true; // x, y, yaw
+  const Eigen::Vector3d start_t(0.2, 0.1, 0.3);
+  const RefinementResult r =
+      refineToDistributions(target, source, Eigen::Matrix3d::Identity(), start_t, options);
+  EXPECT_DOUBLE_EQ(r.translation.z(), 0.3);
+  EXPECT_NEAR(r.rotation(2, 2), 1.0, 1e-12);
+  EXPECT_LT(r.translation.head<2>().norm(), 0.05);
+}
+
+TEST(Refinement, EmptyTargetLeavesThePoseAlone)
+{
+  const TargetDistributions target(PointList{}, 0.5, 4, 0.05);
+  EXPECT_EQ(target.find(Eigen::Vector3f::Zero()), -1);
+  SourceSamples source = makeSourceSamples(PointList{{0, 0, 0}, {1, 0, 0}}, 0.25);
+  const Eigen::Vector3d t(1, 2, 3);
+  const RefinementResult r =
+      refineToDistributions(target, source, Eigen::Matrix3d::Identity(), t, {});
+  EXPECT_EQ(r.translation, t);
+  EXPECT_EQ(r.iterations, 0);
+}
