@@ -416,6 +416,7 @@ printHelp(const char* program)
       "  -max_yaw DEG          largest |yaw| of a pair (default 20)\n"
       "  -pairs SS:i:j,...     only these pairs (sequence SS, frames i < j)\n"
       "  -stride K             every K-th pair only (default 1)\n"
+      "  -repeat N             run every alignment N times, report the median time\n"
       "  -directions both|forward|backward   (default both)\n"
       "  -perturb T,YAW        guess = reference perturbed by T m (random horizontal\n"
       "                        direction) and +-YAW deg (default: identity guess, the paper's\n"
@@ -446,7 +447,7 @@ main(int argc, char** argv)
   std::string root, sequences_arg = "00,01,02,05,08", poses_kind = "semantic";
   std::string methods_arg = "mi-varz,mi-n,gicp,ndt", directions = "both", csv_path, pairs_arg;
   std::string shard_arg;
-  int frames = 10, stride = 1, seed = 1;
+  int frames = 10, stride = 1, seed = 1, repeat = 1;
   double max_yaw = 20.0;
   std::vector<double> distance{1.0, 10.0}, perturb, success{0.5, 2.0};
   pcl::console::parse_argument(argc, argv, "-kitti", root);
@@ -460,6 +461,7 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-frames", frames);
   pcl::console::parse_argument(argc, argv, "-stride", stride);
   pcl::console::parse_argument(argc, argv, "-seed", seed);
+  pcl::console::parse_argument(argc, argv, "-repeat", repeat);
   pcl::console::parse_argument(argc, argv, "-max_yaw", max_yaw);
   pcl::console::parse_argument(argc, argv, "-subdivision", mi_overrides.subdivision);
   pcl::console::parse_argument(argc, argv, "-levels", mi_overrides.levels);
@@ -474,7 +476,7 @@ main(int argc, char** argv)
       return 1;
     }
   if (distance.size() != 2 || success.size() != 2 ||
-      !(perturb.empty() || perturb.size() == 2 || perturb.size() == 3) || stride < 1) {
+      !(perturb.empty() || perturb.size() == 2 || perturb.size() == 3) || stride < 1 || repeat < 1) {
     print_error("pcl_mi_compare: bad arguments (see -h)\n");
     return 1;
   }
@@ -662,6 +664,13 @@ main(int argc, char** argv)
                 p.source_frame, p.target_frame, truth.translation);
     for (const auto& m : methods) {
       Row row = runMethod(m, src, tgt, p);
+      if (repeat > 1) { // report the median time; the results are identical every run
+        std::vector<double> seconds{row.seconds};
+        for (int r = 1; r < repeat; ++r)
+          seconds.push_back(runMethod(m, src, tgt, p).seconds);
+        std::nth_element(seconds.begin(), seconds.begin() + repeat / 2, seconds.end());
+        row.seconds = seconds[static_cast<std::size_t>(repeat / 2)];
+      }
       row.sequence = p.sequence;
       row.target = p.target_frame;
       row.source = p.source_frame;
