@@ -29,7 +29,8 @@ public:
   setTarget(std::shared_ptr<const core::TargetGrid> target) override
   {
     target_ = std::move(target);
-    moments_.assign(target_->geometry.cellCount(), core::VoxelMoments{});
+    // One spare cell past the grid collects the samples outside it.
+    moments_.assign(target_->geometry.cellCount() + 1, core::VoxelMoments{});
     touched_.clear();
   }
 
@@ -59,6 +60,11 @@ public:
     const Eigen::Matrix3f r = rotation * inv_res;
     const Eigen::Vector3f t = (translation - g.origin) * inv_res;
     const Eigen::Vector3f grid_end = g.dims.cast<float>();
+    // The largest floats below the grid's end: inside samples clamp to themselves.
+    const Eigen::Vector3f grid_last(std::nextafter(grid_end.x(), 0.0f),
+                                    std::nextafter(grid_end.y(), 0.0f),
+                                    std::nextafter(grid_end.z(), 0.0f));
+    const std::size_t spare_cell = g.cellCount();
     // A sample's z variance after rotation is r_z^T C r_z (r_z: the rotation's z row), here
     // in quantisation levels squared.
     const Eigen::Vector3f rz = rotation.row(2).transpose();
@@ -68,20 +74,26 @@ public:
     const std::vector<core::SourceSample>& samples = source_->samples;
     Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
     Eigen::Vector3f max = -min;
+    // Room for every sample to open a new cell, so the append below needs no branch.
+    touched_.resize(samples.size());
+    std::size_t touched = 0;
     for (const auto& s : samples) {
       const Eigen::Vector3f f = r * s.position + t;
       min = min.cwiseMin(f);
       max = max.cwiseMax(f);
-      if (!((f.array() >= 0.0f).all() && (f.array() < grid_end.array()).all()))
-        continue;
-      const int ix = std::min(static_cast<int>(f.x()), g.dims.x() - 1);
-      const int iy = std::min(static_cast<int>(f.y()), g.dims.y() - 1);
-      const int iz = std::min(static_cast<int>(f.z()), g.dims.z() - 1);
-      const std::size_t cell = g.cellIndex(ix, iy, iz);
+      // Samples outside the grid go to a spare cell past its end instead of branching
+      // away: whether a sample is inside is as good as random, and mispredicted branches
+      // cost more than the arithmetic. Coordinates are clamped before the integer cast.
+      const bool inside = (f.array() >= 0.0f).all() && (f.array() < grid_end.array()).all();
+      const Eigen::Vector3f clamped = f.cwiseMax(0.0f).cwiseMin(grid_last);
+      const int ix = static_cast<int>(clamped.x());
+      const int iy = static_cast<int>(clamped.y());
+      const int iz = static_cast<int>(clamped.z());
+      const std::size_t cell = inside ? g.cellIndex(ix, iy, iz) : spare_cell;
       core::VoxelMoments& m = moments_[cell];
-      if (m.count == 0)
-        touched_.push_back(static_cast<std::uint32_t>(cell));
-      const int q = core::quantiseHeight(f.z(), iz);
+      touched_[touched] = static_cast<std::uint32_t>(cell);
+      touched += m.count == 0;
+      const int q = core::quantiseHeight(clamped.z(), iz);
       if (!has_covariance) {
         m.add(q);
         continue;
@@ -93,6 +105,8 @@ public:
       m.add(q, s.count,
             static_cast<std::uint32_t>(std::max(0.0f, variance_z) * variance_scale + 0.5f));
     }
+
+    touched_.resize(touched);
 
     // Overlap: intersection of the two bounding boxes, in whole voxels.
     Eigen::Vector3i lo, hi;
@@ -118,8 +132,9 @@ public:
       ++counted;
     };
     for (const std::uint32_t cell : touched_)
-      bump(target_->bins[cell],
-           core::voxelBin(target_->feature, target_->binning, moments_[cell]));
+      if (cell != spare_cell)
+        bump(target_->bins[cell],
+             core::voxelBin(target_->feature, target_->binning, moments_[cell]));
     for (const core::OccupiedVoxel& v : target_->occupied) {
       if (v.ix < lo.x() || v.iy < lo.y() || v.iz < lo.z() || v.ix > hi.x() ||
           v.iy > hi.y() || v.iz > hi.z())
