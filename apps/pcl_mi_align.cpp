@@ -45,10 +45,13 @@ printHelp(const char* program)
       "  -resolution R         voxel size in metres (default 1)\n"
       "  -feature varz|count   voxel feature: variance of z or point count (default varz)\n"
       "  -max_iterations N     Nelder-Mead iteration cap over all restarts (default 1000)\n"
-      "  -levels N             coarse-to-fine pyramid levels (default 2; 1 = single grid)\n"
+      "  -levels N             coarse-to-fine pyramid levels (default 3; 1 = single grid)\n"
       "  -subdivision N        source samples per voxel edge (default 4; 0 = every point)\n"
-      "  -paper                the paper's exact search: one simplex, no mirrored start,\n"
-      "                        no restarts\n"
+      "  -refinement on|off    refine the MI optimum on the target's distributions\n"
+      "                        (default on)\n"
+      "  -paper                the paper's exact method: one simplex, one grid, every\n"
+      "                        point, no mirrored start, restarts or refinement\n"
+      "  -profile              print where the time went, stage by stage\n"
       "  -aligned FILE         aligned source cloud (default aligned.pcd)\n"
       "  -merged FILE          target (grey) + aligned source (red) as XYZRGB for\n"
       "                        pcl_viewer (default merged.pcd)\n"
@@ -187,21 +190,30 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-resolution", resolution);
   std::string feature = "varz";
   pcl::console::parse_argument(argc, argv, "-feature", feature);
-  int max_iterations = reg.getMaximumIterations();
-  if (pcl::console::find_switch(argc, argv, "-paper"))
-    max_iterations = pcl_mi::Parameters::paper().max_iterations;
+  const bool paper = pcl::console::find_switch(argc, argv, "-paper");
+  int max_iterations =
+      paper ? pcl_mi::Parameters::paper().max_iterations : reg.getMaximumIterations();
   pcl::console::parse_argument(argc, argv, "-max_iterations", max_iterations);
   std::string aligned_path = "aligned.pcd", merged_path = "merged.pcd";
   pcl::console::parse_argument(argc, argv, "-aligned", aligned_path);
   pcl::console::parse_argument(argc, argv, "-merged", merged_path);
 
   pcl_mi::Parameters parameters = reg.getParameters();
-  if (pcl::console::find_switch(argc, argv, "-paper"))
+  if (paper)
     parameters = pcl_mi::Parameters::paper();
   parameters.resolution = resolution;
   parameters.max_iterations = max_iterations;
   pcl::console::parse_argument(argc, argv, "-levels", parameters.pyramid_levels);
   pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
+  std::string refinement;
+  if (pcl::console::parse_argument(argc, argv, "-refinement", refinement) >= 0) {
+    if (refinement != "on" && refinement != "off") {
+      print_error("pcl_mi_align: -refinement must be on or off, got '%s'\n", refinement.c_str());
+      return 1;
+    }
+    parameters.refinement = refinement == "on" ? pcl_mi::Refinement::PointToDistribution
+                                               : pcl_mi::Refinement::None;
+  }
   if (feature == "varz")
     parameters.feature = pcl_mi::Feature::VarianceZ;
   else if (feature == "count")
@@ -252,6 +264,17 @@ main(int argc, char** argv)
   print_info("Converged: ");
   print_value("%s\n", reg.hasConverged() ? "yes (simplex met its tolerance)"
                                          : "no (iteration cap reached)");
+  if (reg.getNumberOfRefinementIterations() > 0) {
+    print_info("Refinement iterations: ");
+    print_value("%d\n", reg.getNumberOfRefinementIterations());
+  }
+  if (pcl::console::find_switch(argc, argv, "-profile")) {
+    print_info("Profile (wall-clock, including setInputSource/Target: %.1f ms):\n",
+               seconds * 1e3);
+    print_info("  %-16s %8s %10s\n", "stage", "calls", "total ms");
+    for (const pcl_mi::StageTiming& stage : reg.getLastResult().stages)
+      print_value("  %-16s %8d %10.2f\n", stage.name.c_str(), stage.calls, stage.total_ms);
+  }
   if (has_reference) {
     const auto e = pcl_mi::io::poseError(result, reference);
     print_info("Error against reference: ");

@@ -13,6 +13,7 @@
 
 #include <Eigen/Geometry>
 
+#include <chrono>
 #include <cmath>
 #include <exception>
 #include <stdexcept>
@@ -455,8 +456,17 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
     return result;
   }
   Impl& d = *impl_;
+  using Clock = std::chrono::steady_clock;
+  auto stage_start = Clock::now();
+  auto endStage = [&](std::string name, int calls) {
+    const auto now = Clock::now();
+    result.stages.push_back(
+        {std::move(name), calls, std::chrono::duration<double, std::milli>(now - stage_start).count()});
+    stage_start = now;
+  };
   if (!d.prepare(result.error))
     return result;
+  endStage("prepare", 1);
 
   JointHistogram& histogram = d.scratch;
   if (d.mutualInformation(guess, histogram) <= 0.0 && histogram.overlap_voxels == 0) {
@@ -555,6 +565,17 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   account(forward);
   if (p.symmetric_start)
     account(mirrored);
+  int stage_evaluations = 0;
+  auto endSearchStage = [&](const std::string& name) {
+    endStage(name, result.evaluations - stage_evaluations);
+    stage_evaluations = result.evaluations;
+  };
+  auto levelName = [&](int l) {
+    std::ostringstream s;
+    s << "search " << d.levels[static_cast<std::size_t>(l)].resolution << " m";
+    return s.str();
+  };
+  endSearchStage(levelName(level));
   // The coarse optimum need not be the fine one, and a coarse grid can pull a good guess
   // away from the fine peak: the first finer level refines both the coarse optimum and the
   // guess itself.
@@ -594,10 +615,13 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
     candidates = {best.x};
     if (level > first_level)
       scale *= 0.5;
+    endSearchStage(levelName(level));
   }
   for (int k = 0; k < p.restarts && budget > 0; ++k)
     account(search(level, *d.level(level).backend, best.x,
                    (k % 2 ? scale : -scale) * steps, budget));
+  if (p.restarts > 0)
+    endSearchStage("restarts");
 
   result.converged = best.converged;
   result.mutual_information = -best.value;
@@ -614,6 +638,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
       options.active[i] = p.simplex_steps[i] != 0.0;
     const core::RefinementResult refined =
         core::refineToDistributions(*d.distributions, *d.refinement_samples, r, t, options);
+    endStage("refinement", refined.iterations);
     const double turn_deg =
         Eigen::AngleAxisd(refined.rotation * r.transpose()).angle() * 180.0 / M_PI;
     if ((refined.translation - t).norm() <= kRefinementMaxShift * p.resolution &&

@@ -199,6 +199,13 @@ public:
     return result_.refinement_iterations;
   }
 
+  /** \brief Everything the last align() reported: pose, counts, error, stage timings. */
+  const pcl_mi::AlignmentResult&
+  getLastResult() const
+  {
+    return result_;
+  }
+
   /** \brief Why the last align() failed; empty after a successful one. */
   const std::string&
   getLastError() const

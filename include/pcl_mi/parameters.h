@@ -8,6 +8,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 namespace pcl_mi {
 
@@ -134,6 +135,13 @@ struct Parameters {
   validate() const;
 };
 
+/** \brief Wall-clock time spent in one stage of an alignment. */
+struct StageTiming {
+  std::string name;      ///< e.g. "prepare", "search 4 m", "refinement"
+  int calls = 0;         ///< times the stage ran (cost evaluations for a search stage)
+  double total_ms = 0.0; ///< wall-clock milliseconds, summed over calls
+};
+
 /** \brief Outcome of one alignment. */
 struct AlignmentResult {
   /** Source-to-target transformation (maps source points into the target frame). */
@@ -151,6 +159,9 @@ struct AlignmentResult {
   double mutual_information = 0.0;
   /** Empty on success, otherwise why the alignment failed. */
   std::string error;
+  /** Where the time went, stage by stage in the order they ran. Concurrent searches are
+   * one stage; its time is wall-clock. */
+  std::vector<StageTiming> stages;
 };
 
 } // namespace pcl_mi
