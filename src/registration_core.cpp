@@ -105,8 +105,9 @@ constexpr double kCoarseToleranceFactor = 30.0;
 
 /** Fewest points a target cube needs to give the refinement a distribution. */
 constexpr int kRefinementMinimumPoints = 4;
-/** Noise added to the refinement's target covariances, as a fraction of their cube edge. */
-constexpr double kRefinementNoiseFraction = 0.1;
+/** Noise (standard deviation) added to the refinement's target covariances, as a fraction
+ * of the MI resolution: 0.05 m at 1 m voxels, about the range noise of a spinning LiDAR. */
+constexpr double kRefinementNoiseFraction = 0.05;
 /** A refinement that moves the pose further than this (the MI resolution times this, and
  * degrees) left the MI basin and is discarded. */
 constexpr double kRefinementMaxShift = 1.0;
@@ -161,7 +162,7 @@ struct RegistrationCore::Impl {
     }
     const bool new_target = target_dirty, new_source = source_dirty || target_dirty;
     std::string target_error, source_error;
-    std::vector<core::SourceSamples> pyramid;
+    std::vector<SamplesPtr> pyramid;
     bool target_ok = true, source_ok = true;
     if (new_target && new_source && parameters.num_threads > 1) {
       std::exception_ptr failure;
@@ -190,7 +191,7 @@ struct RegistrationCore::Impl {
     }
     target_dirty = false;
     if (new_source) {
-      attachSamples(std::move(pyramid));
+      attachSamples(pyramid);
       source_dirty = false;
     }
     return true;
@@ -219,52 +220,82 @@ struct RegistrationCore::Impl {
           target.points,
           parameters.refinement_resolution,
           kRefinementMinimumPoints,
-          kRefinementNoiseFraction * parameters.refinement_resolution);
+          kRefinementNoiseFraction * parameters.resolution);
     return true;
   }
 
-  /** The source's local cloud and its samples for every level (see attachSamples()). */
+  using SamplesPtr = std::shared_ptr<const core::SourceSamples>;
+
+  /** The source's local cloud, its samples for every level and the refinement's samples
+   * (see attachSamples()). */
   bool
-  prepareSource(std::vector<core::SourceSamples>& pyramid, std::string& error)
+  prepareSource(std::vector<SamplesPtr>& per_level, std::string& error)
   {
     source = core::makeLocalCloud(source_input, core::kOutlierGapVoxels * parameters.resolution);
     if (source.points.size() < kMinimumPoints) {
       error = describeTooFew("source", source);
       return false;
     }
-    // One sort of the points serves every level: the coarser samples merge the finer.
-    const double cell = parameters.source_subdivision > 0
-                            ? parameters.resolution / parameters.source_subdivision
-                            : 0.0;
-    pyramid = core::makeSourceSamplePyramid(
-        source.points, cell, cell > 0.0 ? parameters.pyramid_levels - 1 : 0);
-    const double refinement_cell = parameters.refinement_resolution / 2.0;
-    refinement_samples.reset();
-    if (parameters.refinement == Refinement::PointToDistribution &&
-        std::abs(cell - refinement_cell) > 1e-9 * refinement_cell)
-      refinement_samples = std::make_shared<const core::SourceSamples>(
-          core::makeSourceSamples(source.points, refinement_cell));
+    const int num_levels = parameters.pyramid_levels;
+    const bool refine = parameters.refinement == Refinement::PointToDistribution;
+    std::vector<double> cells(static_cast<std::size_t>(num_levels), 0.0); // 0: every point
+    std::vector<double> needed;
+    if (parameters.source_subdivision > 0)
+      for (int l = 0; l < num_levels; ++l)
+        needed.push_back(cells[l] = parameters.resolution * std::ldexp(1.0, l) /
+                                    parameters.source_subdivision);
+
+    // When every cell size is the smallest one times a power of two (the usual case), one
+    // sort of the points serves them all: the coarser samples merge the finer.
+    const double base = needed.empty() ? 0.0 : *std::min_element(needed.begin(), needed.end());
+    auto octave = [&](double cell) {
+      const double k = std::log2(cell / base);
+      const long rounded = std::lround(k);
+      return std::abs(k - static_cast<double>(rounded)) < 1e-9 ? static_cast<int>(rounded) : -1;
+    };
+    int depth = 0;
+    bool nested = !needed.empty();
+    for (const double c : needed) {
+      nested = nested && octave(c) >= 0;
+      depth = std::max(depth, octave(c));
+    }
+    std::vector<SamplesPtr> pyramid;
+    if (nested)
+      for (auto& samples : core::makeSourceSamplePyramid(source.points, base, depth))
+        pyramid.push_back(std::make_shared<const core::SourceSamples>(std::move(samples)));
+    SamplesPtr every_point;
+    auto samplesFor = [&](double cell) -> SamplesPtr {
+      if (cell <= 0.0) {
+        if (!every_point)
+          every_point = std::make_shared<const core::SourceSamples>(
+              core::makeSourceSamples(source.points, 0.0));
+        return every_point;
+      }
+      if (nested)
+        return pyramid[static_cast<std::size_t>(octave(cell))];
+      return std::make_shared<const core::SourceSamples>(
+          core::makeSourceSamples(source.points, cell));
+    };
+    per_level.clear();
+    for (const double c : cells)
+      per_level.push_back(samplesFor(c));
+    // The refinement moves the finest level's samples.
+    refinement_samples = refine ? per_level[0] : nullptr;
     return true;
   }
 
   /** Hands the source samples to the levels and their backends. */
   void
-  attachSamples(std::vector<core::SourceSamples> pyramid)
+  attachSamples(const std::vector<SamplesPtr>& per_level)
   {
-    std::vector<std::shared_ptr<const core::SourceSamples>> shared;
-    for (auto& samples : pyramid)
-      shared.push_back(std::make_shared<const core::SourceSamples>(std::move(samples)));
     for (std::size_t l = 0; l < levels.size(); ++l) {
       Level& level = levels[l];
-      // Without subdivision every level moves the same points.
-      level.samples = shared[std::min(l, shared.size() - 1)];
+      level.samples = per_level[l];
       if (level.backend)
         level.backend->setSource(level.samples);
       if (level.mirror_backend)
         level.mirror_backend->setSource(level.samples);
     }
-    if (parameters.refinement == Refinement::PointToDistribution && !refinement_samples)
-      refinement_samples = levels[0].samples;
   }
 
   /** Pyramid level \a l with its grid and backend built (after a successful prepare()).

@@ -88,7 +88,7 @@ struct Parameters {
   /** The source enters each evaluation as samples: the points of each cube of edge
    * (level resolution / source_subdivision) summarised by count, centroid and covariance.
    * 0 = every point on its own (the paper's exact evaluation). */
-  int source_subdivision = 4;
+  int source_subdivision = 2;
   /** Threads one alignment may use: with 2 or more, the two starts of the symmetric search
    * run concurrently. The result is the same for any number of threads. */
   int num_threads = 2;
@@ -105,8 +105,11 @@ struct Parameters {
    * a smooth cost that converges in a few Gauss-Newton steps from within the basin. A
    * refinement that moves the pose by more than resolution or 5 degrees is discarded. */
   Refinement refinement = Refinement::PointToDistribution;
-  /** Cube edge (m) of the target distributions and source samples of the refinement. */
-  double refinement_resolution = 0.5;
+  /** Cube edge (m) of the refinement's target distributions. The refinement moves the
+   * finest level's source samples (cubes of resolution / source_subdivision); a cube edge
+   * that is not a multiple of theirs keeps the two grids from aliasing (measured on KITTI:
+   * 0.7 m gives 0.025 m mean error with 0.5 m samples, 0.5 m gives 0.05 m). */
+  double refinement_resolution = 0.7;
   /** Most Gauss-Newton iterations of the refinement. */
   int refinement_max_iterations = 20;
   /** Maximum number of Nelder-Mead iterations, summed over all starts and restarts. */
