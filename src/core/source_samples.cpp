@@ -9,6 +9,77 @@
 namespace pcl_mi {
 namespace core {
 
+namespace {
+
+using KeyedIndex = std::pair<std::uint64_t, std::uint32_t>;
+
+/** Sorts by key (keys below 2^bits) with a stable LSD radix sort in 11-bit digits: three
+ * linear passes for a KITTI scan's cells instead of a comparison sort. */
+void
+radixSortByKey(std::vector<KeyedIndex>& keyed, int bits)
+{
+  constexpr int kDigitBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
+  std::vector<KeyedIndex> buffer(keyed.size());
+  std::vector<std::size_t> offsets(kBuckets);
+  for (int shift = 0; shift < bits; shift += kDigitBits) {
+    std::fill(offsets.begin(), offsets.end(), 0);
+    for (const auto& k : keyed)
+      ++offsets[(k.first >> shift) & (kBuckets - 1)];
+    std::size_t sum = 0;
+    for (auto& o : offsets) {
+      const std::size_t count = o;
+      o = sum;
+      sum += count;
+    }
+    for (const auto& k : keyed)
+      buffer[offsets[(k.first >> shift) & (kBuckets - 1)]++] = k;
+    keyed.swap(buffer);
+  }
+}
+
+/** Bits needed for values up to \a max_value. */
+int
+bitsFor(std::uint64_t max_value)
+{
+  int bits = 0;
+  while (bits < 64 && (max_value >> bits) != 0)
+    ++bits;
+  return bits;
+}
+
+/** Cell coordinates of \a positions (cubes of edge \a cell_size from \a min), packed into
+ * keys ordered z, then y, then x with as few bits per axis as the extent needs, and
+ * sorted. Coordinates are capped at 2^21 - 1 cells per axis. */
+template <typename PositionOf>
+std::vector<KeyedIndex>
+sortedCellKeys(std::size_t count,
+               const PositionOf& position_of,
+               const Eigen::Vector3f& min,
+               double cell_size)
+{
+  const double inv = 1.0 / cell_size;
+  constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+  std::vector<Eigen::Matrix<std::uint64_t, 3, 1>> cells(count);
+  Eigen::Matrix<std::uint64_t, 3, 1> max_cell = Eigen::Matrix<std::uint64_t, 3, 1>::Zero();
+  for (std::size_t i = 0; i < count; ++i) {
+    const Eigen::Vector3d c =
+        ((position_of(i) - min).template cast<double>() * inv).array().floor().max(0.0);
+    for (int a = 0; a < 3; ++a)
+      cells[i][a] = std::min<std::uint64_t>(static_cast<std::uint64_t>(c[a]), kMask);
+    max_cell = max_cell.cwiseMax(cells[i]);
+  }
+  const int bx = bitsFor(max_cell.x()), by = bitsFor(max_cell.y()), bz = bitsFor(max_cell.z());
+  std::vector<KeyedIndex> keyed(count);
+  for (std::size_t i = 0; i < count; ++i)
+    keyed[i] = {(cells[i].z() << (bx + by)) | (cells[i].y() << bx) | cells[i].x(),
+                static_cast<std::uint32_t>(i)};
+  radixSortByKey(keyed, bx + by + bz);
+  return keyed;
+}
+
+} // namespace
+
 SourceSamples
 makeSourceSamples(const PointList& points, double cell_size)
 {
@@ -24,21 +95,13 @@ makeSourceSamples(const PointList& points, double cell_size)
     return out;
   }
 
-  // Sort points by a packed cell key (21 bits per axis, z slowest), then summarise runs.
+  // Sort points by their cell (z slowest), then summarise runs of equal cells.
   Eigen::Vector3f min = points.front();
   for (const auto& p : points)
     min = min.cwiseMin(p);
-  const double inv = 1.0 / cell_size;
-  constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3d c = ((points[i] - min).cast<double>() * inv).array().floor();
-    const std::uint64_t kx = std::min<std::uint64_t>(static_cast<std::uint64_t>(c.x()), kMask);
-    const std::uint64_t ky = std::min<std::uint64_t>(static_cast<std::uint64_t>(c.y()), kMask);
-    const std::uint64_t kz = std::min<std::uint64_t>(static_cast<std::uint64_t>(c.z()), kMask);
-    keyed[i] = {(kz << 42) | (ky << 21) | kx, static_cast<std::uint32_t>(i)};
-  }
-  std::sort(keyed.begin(), keyed.end());
+  const std::vector<KeyedIndex> keyed = sortedCellKeys(
+      points.size(), [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; }, min,
+      cell_size);
 
   for (std::size_t begin = 0; begin < keyed.size();) {
     std::size_t end = begin + 1;
@@ -84,19 +147,11 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
     SourceSamples out;
     out.cell_size = fine.cell_size * 2.0;
     out.point_count = fine.point_count;
-    // The same keys as makeSourceSamples at the coarser size, for the finer centroids.
-    const double inv = 1.0 / out.cell_size;
-    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(fine.samples.size());
-    for (std::size_t i = 0; i < fine.samples.size(); ++i) {
-      const Eigen::Vector3d c =
-          ((fine.samples[i].position - min).cast<double>() * inv).array().floor().max(0.0);
-      const std::uint64_t kx = std::min<std::uint64_t>(static_cast<std::uint64_t>(c.x()), kMask);
-      const std::uint64_t ky = std::min<std::uint64_t>(static_cast<std::uint64_t>(c.y()), kMask);
-      const std::uint64_t kz = std::min<std::uint64_t>(static_cast<std::uint64_t>(c.z()), kMask);
-      keyed[i] = {(kz << 42) | (ky << 21) | kx, static_cast<std::uint32_t>(i)};
-    }
-    std::sort(keyed.begin(), keyed.end());
+    // The same cells as makeSourceSamples at the coarser size, for the finer centroids.
+    const std::vector<KeyedIndex> keyed = sortedCellKeys(
+        fine.samples.size(),
+        [&](std::size_t i) -> const Eigen::Vector3f& { return fine.samples[i].position; }, min,
+        out.cell_size);
     for (std::size_t begin = 0; begin < keyed.size();) {
       std::size_t end = begin + 1;
       while (end < keyed.size() && keyed[end].first == keyed[begin].first)
