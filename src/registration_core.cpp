@@ -4,6 +4,9 @@
 #include <pcl_mi/registration_core.h>
 
 #include "backend/scoring_backend.h"
+#ifdef PCL_MI_WITH_OPENCL
+#include "backend/opencl_backend.h"
+#endif
 #include "core/mutual_information.h"
 #include "core/nelder_mead.h"
 #include "core/parallel.h"
@@ -89,6 +92,8 @@ Parameters::validate() const
     s << "pyramid levels must be 1..8, got " << pyramid_levels;
   else if (restarts < 0)
     s << "restarts must not be negative, got " << restarts;
+  else if (backend != Backend::Cpu && backend != Backend::OpenCL && backend != Backend::Auto)
+    s << "unknown backend " << static_cast<int>(backend);
   else if (refinement != Refinement::None && refinement != Refinement::PointToDistribution)
     s << "unknown refinement " << static_cast<int>(refinement);
   else if (!(refinement_resolution > 0.0) || !std::isfinite(refinement_resolution))
@@ -132,6 +137,12 @@ struct RegistrationCore::Impl {
     std::shared_ptr<const core::SourceSamples> samples;
   };
   std::vector<Level> levels;
+  /** The backend the levels use, resolved with the target. */
+  bool use_opencl = false;
+  std::string backend_name = "cpu", backend_warning;
+#ifdef PCL_MI_WITH_OPENCL
+  std::shared_ptr<backend::OpenClDevice> opencl_device;
+#endif
   /** The refinement's target distributions and source samples (when it is on). */
   std::unique_ptr<core::TargetDistributions> distributions;
   std::shared_ptr<const core::SourceSamples> refinement_samples;
@@ -197,11 +208,54 @@ struct RegistrationCore::Impl {
     return true;
   }
 
+  /** Picks the backend for the parameters: false (with \a error) only when OpenCL was
+   * requested explicitly and is unavailable; Auto falls back to the CPU with a warning. */
+  bool
+  resolveBackend(std::string& error)
+  {
+    use_opencl = false;
+    backend_name = "cpu";
+    backend_warning.clear();
+    if (parameters.backend == Backend::Cpu)
+      return true;
+    std::string why;
+#ifdef PCL_MI_WITH_OPENCL
+    opencl_device =
+        backend::openClDevice(parameters.opencl_platform, parameters.opencl_device, why);
+    if (opencl_device) {
+      use_opencl = true;
+      backend_name = "opencl (" + backend::openClDeviceName(*opencl_device) + ")";
+      return true;
+    }
+#else
+    why = "this pcl_mi was built without its OpenCL backend (PCL_MI_WITH_OPENCL=OFF or no "
+          "OpenCL found at build time)";
+#endif
+    if (parameters.backend == Backend::OpenCL) {
+      error = "the OpenCL backend was requested but is unavailable: " + why;
+      return false;
+    }
+    backend_warning = "no usable OpenCL device, using the CPU backend: " + why;
+    return true;
+  }
+
+  std::unique_ptr<backend::ScoringBackend>
+  makeBackend()
+  {
+#ifdef PCL_MI_WITH_OPENCL
+    if (use_opencl)
+      return backend::makeOpenClBackend(opencl_device);
+#endif
+    return backend::makeCpuBackend();
+  }
+
   /** The target's local cloud, the (still empty) levels and the refinement's distributions. */
   bool
   prepareTarget(std::string& error)
   {
     levels.clear();
+    if (!resolveBackend(error))
+      return false;
     distributions.reset();
     target = core::makeLocalCloud(target_input, core::kOutlierGapVoxels * parameters.resolution);
     if (target.points.size() < kMinimumPoints) {
@@ -310,7 +364,7 @@ struct RegistrationCore::Impl {
       if (!core::buildTargetGrid(target.points, level.resolution, parameters.feature,
                                  levelBinning(level.resolution), *level.grid, error))
         throw std::runtime_error(error);
-      level.backend = backend::makeCpuBackend();
+      level.backend = makeBackend();
       level.backend->setTarget(level.grid);
       level.backend->setSource(level.samples);
     }
@@ -324,7 +378,7 @@ struct RegistrationCore::Impl {
   {
     Level& lv = level(l);
     if (!lv.mirror_backend) {
-      lv.mirror_backend = backend::makeCpuBackend();
+      lv.mirror_backend = makeBackend();
       lv.mirror_backend->setTarget(lv.grid);
       lv.mirror_backend->setSource(lv.samples);
     }
@@ -407,6 +461,11 @@ RegistrationCore::setParameters(const Parameters& parameters)
   }
   if (old.source_subdivision != parameters.source_subdivision)
     impl_->source_dirty = true;
+  if (old.backend != parameters.backend || old.opencl_platform != parameters.opencl_platform ||
+      old.opencl_device != parameters.opencl_device) {
+    impl_->target_dirty = true;
+    impl_->source_dirty = true;
+  }
   if (old.refinement != parameters.refinement ||
       old.refinement_resolution != parameters.refinement_resolution) {
     impl_->target_dirty = true;
@@ -436,6 +495,58 @@ RegistrationCore::setSource(PointList points)
   impl_->source_input = std::move(points);
   impl_->has_source = true;
   impl_->source_dirty = true;
+}
+
+std::vector<StageTiming>
+RegistrationCore::backendProfile() const
+{
+  std::vector<StageTiming> stages;
+  for (const auto& level : impl_->levels) {
+    if (level.backend)
+      level.backend->appendProfile(stages);
+    if (level.mirror_backend)
+      level.mirror_backend->appendProfile(stages);
+  }
+  return stages;
+}
+
+void
+RegistrationCore::resetBackendProfile()
+{
+  for (auto& level : impl_->levels) {
+    if (level.backend)
+      level.backend->resetProfile();
+    if (level.mirror_backend)
+      level.mirror_backend->resetProfile();
+  }
+}
+
+const std::string&
+RegistrationCore::backendName() const
+{
+  return impl_->backend_name;
+}
+
+const std::string&
+RegistrationCore::backendWarning() const
+{
+  return impl_->backend_warning;
+}
+
+bool
+openClAvailable(std::string* reason)
+{
+#ifdef PCL_MI_WITH_OPENCL
+  std::string why;
+  const bool ok = backend::openClDevice(-1, -1, why) != nullptr;
+  if (reason)
+    *reason = ok ? std::string() : why;
+  return ok;
+#else
+  if (reason)
+    *reason = "built without the OpenCL backend";
+  return false;
+#endif
 }
 
 std::size_t

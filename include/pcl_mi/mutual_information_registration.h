@@ -153,6 +153,25 @@ public:
     return core_.parameters().rotation_tolerance;
   }
 
+  /** \brief Where the cost evaluations run: Backend::Cpu (default), Backend::OpenCL (an
+   * error at align() if no OpenCL device is usable) or Backend::Auto (OpenCL if possible,
+   * else the CPU with a PCL_WARN). All give the same result. */
+  void
+  setBackend(pcl_mi::Backend backend);
+  pcl_mi::Backend
+  getBackend() const
+  {
+    return core_.parameters().backend;
+  }
+
+  /** \brief Per-stage time of the backend since the target was set (see
+   * pcl_mi::RegistrationCore::backendProfile()). */
+  std::vector<pcl_mi::StageTiming>
+  getBackendProfile() const
+  {
+    return core_.backendProfile();
+  }
+
   /** \brief Refinement after the MI search (pcl_mi::Parameters::refinement). */
   void
   setRefinement(pcl_mi::Refinement refinement);
@@ -281,6 +300,7 @@ private:
 
   pcl_mi::RegistrationCore core_;
   pcl_mi::AlignmentResult result_;
+  std::string warned_; // the backend warning already printed
   ConvertedSource converted_source_;
 };
 

@@ -29,6 +29,13 @@ operator<<(std::ostream& os, Feature feature)
   return os << featureName(feature);
 }
 
+/** \brief Where the cost evaluations (joint histograms) run. */
+enum class Backend {
+  Cpu,    ///< plain C++ on the calling thread(s)
+  OpenCL, ///< OpenCL kernels on a GPU or, through PoCL, on the CPU; an error if unavailable
+  Auto    ///< OpenCL when a device is available, else the CPU with a warning
+};
+
 /** \brief Local refinement applied to the optimum of the MI search. */
 enum class Refinement {
   None,                ///< the MI optimum as found (the paper's method)
@@ -99,6 +106,13 @@ struct Parameters {
   /** Scale, relative to simplex_steps, of the simplex with which the second-coarsest level
    * refines the coarsest level's optimum; each finer level halves it. */
   double restart_scale = 0.25;
+  /** Backend of the cost evaluations. Every backend gives the same joint histograms, bit
+   * for bit, hence the same result. */
+  Backend backend = Backend::Cpu;
+  /** OpenCL platform and device index (as clinfo lists them); -1, -1 picks the first GPU,
+   * else the first device. */
+  int opencl_platform = -1;
+  int opencl_device = -1;
   /** Refinement after the MI search. MI finds the basin from far away but its optimum is
    * quantised by the voxel grid; the refinement moves the source samples onto the
    * target's local surfaces (mean and covariance per cube of edge refinement_resolution),

@@ -39,6 +39,11 @@ struct JointHistogram {
  * Nelder-Mead search. It knows nothing of PCL point types. Not thread-safe: use one
  * instance per thread.
  */
+/** \brief True when this build has the OpenCL backend and an OpenCL device (with double
+ * support) is available; otherwise false and, in \a reason, why. */
+bool
+openClAvailable(std::string* reason = nullptr);
+
 class RegistrationCore {
 public:
   RegistrationCore();
@@ -83,6 +88,23 @@ public:
   jointHistogram(const Eigen::Matrix4d& pose,
                  JointHistogram& histogram,
                  std::string* error = nullptr);
+
+  /** \brief Time per backend stage, summed over every evaluation since the target was set
+   * or resetBackendProfile() (for OpenCL: kernel times from device events, plus host-side
+   * allocation, copies and the program build). */
+  std::vector<StageTiming>
+  backendProfile() const;
+  void
+  resetBackendProfile();
+
+  /** \brief The backend in use ("cpu" or "opencl (device name)"), known after the first
+   * evaluate()/align() with the current target and parameters. */
+  const std::string&
+  backendName() const;
+
+  /** \brief Non-empty when Backend::Auto fell back to the CPU: why. */
+  const std::string&
+  backendWarning() const;
 
   /** \brief Number of points dropped from the last target/source as non-finite or as far
    * outliers (isolated from the rest of the cloud by a large empty gap). */

@@ -6,6 +6,7 @@
 #include "core/feature_binning.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -41,9 +42,43 @@ public:
   }
 
   void
+  appendProfile(std::vector<StageTiming>& stages) const override
+  {
+    if (calls_ == 0)
+      return;
+    for (StageTiming& s : stages)
+      if (s.name == "cpu: joint histogram") {
+        s.calls += calls_;
+        s.total_ms += total_ms_;
+        return;
+      }
+    stages.push_back({"cpu: joint histogram", calls_, total_ms_});
+  }
+
+  void
+  resetProfile() override
+  {
+    calls_ = 0;
+    total_ms_ = 0.0;
+  }
+
+  void
   jointHistogram(const Eigen::Matrix3f& rotation,
                  const Eigen::Vector3f& translation,
                  JointHistogram& histogram) override
+  {
+    const auto start = std::chrono::steady_clock::now();
+    compute(rotation, translation, histogram);
+    ++calls_;
+    total_ms_ +=
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
+
+private:
+  void
+  compute(const Eigen::Matrix3f& rotation,
+          const Eigen::Vector3f& translation,
+          JointHistogram& histogram)
   {
     const core::GridGeometry& g = target_->geometry;
     const int num_bins = target_->binning.num_bins + 1;
@@ -78,7 +113,11 @@ public:
     touched_.resize(samples.size());
     std::size_t touched = 0;
     for (const auto& s : samples) {
-      const Eigen::Vector3f f = r * s.position + t;
+      // Spelled out in the OpenCL kernel's order (kernels/joint_histogram.cl).
+      const Eigen::Vector3f& p = s.position;
+      const Eigen::Vector3f f(((r(0, 0) * p.x() + r(0, 1) * p.y()) + r(0, 2) * p.z()) + t.x(),
+                              ((r(1, 0) * p.x() + r(1, 1) * p.y()) + r(1, 2) * p.z()) + t.y(),
+                              ((r(2, 0) * p.x() + r(2, 1) * p.y()) + r(2, 2) * p.z()) + t.z());
       min = min.cwiseMin(f);
       max = max.cwiseMax(f);
       // Samples outside the grid go to a spare cell past its end instead of branching
@@ -147,7 +186,6 @@ public:
     clearTouched();
   }
 
-private:
   void
   clearTouched()
   {
@@ -160,6 +198,8 @@ private:
   std::shared_ptr<const core::SourceSamples> source_;
   std::vector<core::VoxelMoments> moments_; // per target cell, zero between calls
   std::vector<std::uint32_t> touched_;      // cells with source points this call
+  int calls_ = 0;
+  double total_ms_ = 0.0;
 };
 
 } // namespace

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include <memory>
+#include <vector>
 
 namespace pcl_mi {
 namespace backend {
@@ -41,6 +42,15 @@ public:
   jointHistogram(const Eigen::Matrix3f& rotation,
                  const Eigen::Vector3f& translation,
                  JointHistogram& histogram) = 0;
+
+  /** \brief Adds this backend's stage timings since the last reset to \a stages (stages of
+   * the same name are summed). */
+  virtual void
+  appendProfile(std::vector<StageTiming>& stages) const = 0;
+
+  /** \brief Forgets the stage timings. */
+  virtual void
+  resetProfile() = 0;
 };
 
 /** \brief The reference CPU backend. */

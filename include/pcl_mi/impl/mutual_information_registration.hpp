@@ -224,6 +224,14 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfRest
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setBackend(
+    pcl_mi::Backend backend)
+{
+  updateParameters("setBackend", [&](pcl_mi::Parameters& p) { p.backend = backend; });
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRefinement(
     pcl_mi::Refinement refinement)
 {
@@ -308,6 +316,10 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
     }
   }
 
+  if (!core_.backendWarning().empty() && core_.backendWarning() != warned_) {
+    warned_ = core_.backendWarning();
+    PCL_WARN("[pcl::%s::computeTransformation] %s.\n", getClassName().c_str(), warned_.c_str());
+  }
   if (!result_.error.empty()) {
     PCL_ERROR("[pcl::%s::computeTransformation] %s.\n",
               getClassName().c_str(),

@@ -1,0 +1,275 @@
+/*
+ * pcl_mi: one cost evaluation as OpenCL kernels, the paper's GPU pipeline:
+ *   map_samples      transform the source samples and map them to voxels (map), with
+ *                    per-work-group bounding boxes
+ *   reduce_overlap   the bounding box of the moved source, intersected with the target's
+ *                    grid (reduce)
+ *   histogram_*      per-voxel features and the joint histogram (map into local-memory
+ *                    integer histograms, merged with atomics)
+ *   clear_touched    reset the voxels this evaluation touched
+ * Every operation mirrors src/backend/cpu_backend.cpp and src/core/feature_binning.h in
+ * the same order, with contraction into fused multiply-adds off, so the histograms are
+ * bit-for-bit those of the CPU backend. OpenCL C 1.2; the feature values use double
+ * (cl_khr_fp64), as the CPU does.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#pragma OPENCL FP_CONTRACT OFF
+
+#define HEIGHT_LEVELS 256
+
+/* One source sample: position, point count and the 6 covariance terms (xx xy xz yy yz zz). */
+typedef struct {
+  float px, py, pz;
+  uint count;
+  float c[6];
+  float pad[2];
+} Sample;
+
+/* Integer moments of one voxel: count, sum of quantised heights, and the 64-bit sum of
+ * their squares split into two words (OpenCL 1.2 has no 64-bit atomics). */
+typedef struct {
+  uint count;
+  uint sum_q;
+  uint sum_q2_lo;
+  uint sum_q2_hi;
+} Moments;
+
+/* Occupied target voxel: cell index, coordinates and bin. */
+typedef struct {
+  uint cell;
+  int ix, iy, iz;
+  uint bin;
+} OccupiedVoxel;
+
+/* The pose in grid units: f = R p + t. */
+typedef struct {
+  float r[9];      /* row-major, already divided by the resolution */
+  float t[3];      /* (translation - origin) / resolution */
+  float rz[3];     /* third row of the unscaled rotation */
+  float variance_scale;
+} Pose;
+
+static void add_u64(volatile __global uint* lo, volatile __global uint* hi, ulong value)
+{
+  const uint low = (uint)value;
+  const uint old = atomic_add(lo, low);
+  uint carry = (uint)(value >> 32);
+  if (old + low < old)
+    carry += 1u;
+  if (carry)
+    atomic_add(hi, carry);
+}
+
+__kernel void map_samples(__global const Sample* samples,
+                          const uint num_samples,
+                          const Pose pose,
+                          const int4 dims,
+                          const uint has_covariance,
+                          __global Moments* moments,
+                          __global uint* touched,
+                          __global uint* counters,   /* [0]: touched cells */
+                          __global float* group_boxes, /* 6 per work-group */
+                          __local float* box)          /* 6 per work-item */
+{
+  const uint i = get_global_id(0);
+  const uint lid = get_local_id(0);
+  float3 mn = (float3)(FLT_MAX, FLT_MAX, FLT_MAX);
+  float3 mx = -mn;
+  if (i < num_samples) {
+    const Sample s = samples[i];
+    float3 f;
+    f.x = ((pose.r[0] * s.px + pose.r[1] * s.py) + pose.r[2] * s.pz) + pose.t[0];
+    f.y = ((pose.r[3] * s.px + pose.r[4] * s.py) + pose.r[5] * s.pz) + pose.t[1];
+    f.z = ((pose.r[6] * s.px + pose.r[7] * s.py) + pose.r[8] * s.pz) + pose.t[2];
+    mn = f;
+    mx = f;
+    const float3 end = (float3)((float)dims.x, (float)dims.y, (float)dims.z);
+    const int inside = f.x >= 0.0f && f.y >= 0.0f && f.z >= 0.0f && f.x < end.x &&
+                       f.y < end.y && f.z < end.z;
+    if (inside) {
+      const int ix = (int)f.x, iy = (int)f.y, iz = (int)f.z;
+      const uint cell = ((uint)iz * (uint)dims.y + (uint)iy) * (uint)dims.x + (uint)ix;
+      int q = (int)((f.z - (float)iz) * HEIGHT_LEVELS);
+      q = min(max(q, 0), HEIGHT_LEVELS - 1);
+      uint n = 1u;
+      ulong q2 = (ulong)q * (ulong)q;
+      if (has_covariance) {
+        const float* c = s.c;
+        const float rx = pose.rz[0], ry = pose.rz[1], rzz = pose.rz[2];
+        const float variance_z = rx * (rx * c[0] + 2.0f * (ry * c[1] + rzz * c[2])) +
+                                 ry * (ry * c[3] + 2.0f * rzz * c[4]) + rzz * rzz * c[5];
+        const uint variance_q = (uint)(fmax(0.0f, variance_z) * pose.variance_scale + 0.5f);
+        n = s.count;
+        q2 = (ulong)n * (q2 + (ulong)variance_q);
+      }
+      volatile __global Moments* m = moments + cell;
+      if (atomic_add(&m->count, n) == 0u)
+        touched[atomic_inc(&counters[0])] = cell;
+      atomic_add(&m->sum_q, n * (uint)q);
+      add_u64(&m->sum_q2_lo, &m->sum_q2_hi, q2);
+    }
+  }
+  /* Work-group bounding box: min and max are exact in any order. */
+  box[6 * lid + 0] = mn.x;
+  box[6 * lid + 1] = mn.y;
+  box[6 * lid + 2] = mn.z;
+  box[6 * lid + 3] = mx.x;
+  box[6 * lid + 4] = mx.y;
+  box[6 * lid + 5] = mx.z;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint stride = get_local_size(0) / 2; stride > 0; stride /= 2) {
+    if (lid < stride)
+      for (int a = 0; a < 3; ++a) {
+        box[6 * lid + a] = fmin(box[6 * lid + a], box[6 * (lid + stride) + a]);
+        box[6 * lid + 3 + a] = fmax(box[6 * lid + 3 + a], box[6 * (lid + stride) + 3 + a]);
+      }
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lid == 0)
+    for (int a = 0; a < 6; ++a)
+      group_boxes[6 * get_group_id(0) + a] = box[a];
+}
+
+/* One work-group: the source's bounding box from the groups' boxes, then the overlap in
+ * whole voxels, [lo, hi] inclusive; overlap[6] = 1 when it is not empty. */
+__kernel void reduce_overlap(__global const float* group_boxes,
+                             const uint num_groups,
+                             const uint num_samples,
+                             const int4 dims,
+                             __global int* overlap,
+                             __local float* box)
+{
+  const uint lid = get_local_id(0);
+  float3 mn = (float3)(FLT_MAX, FLT_MAX, FLT_MAX);
+  float3 mx = -mn;
+  for (uint g = lid; g < num_groups; g += get_local_size(0)) {
+    mn = fmin(mn, (float3)(group_boxes[6 * g], group_boxes[6 * g + 1], group_boxes[6 * g + 2]));
+    mx = fmax(mx, (float3)(group_boxes[6 * g + 3], group_boxes[6 * g + 4], group_boxes[6 * g + 5]));
+  }
+  box[6 * lid + 0] = mn.x;
+  box[6 * lid + 1] = mn.y;
+  box[6 * lid + 2] = mn.z;
+  box[6 * lid + 3] = mx.x;
+  box[6 * lid + 4] = mx.y;
+  box[6 * lid + 5] = mx.z;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint stride = get_local_size(0) / 2; stride > 0; stride /= 2) {
+    if (lid < stride)
+      for (int a = 0; a < 3; ++a) {
+        box[6 * lid + a] = fmin(box[6 * lid + a], box[6 * (lid + stride) + a]);
+        box[6 * lid + 3 + a] = fmax(box[6 * lid + 3 + a], box[6 * (lid + stride) + 3 + a]);
+      }
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lid != 0)
+    return;
+  const int d[3] = {dims.x, dims.y, dims.z};
+  int ok = num_samples > 0;
+  for (int a = 0; a < 3; ++a) {
+    /* Clamp before converting: a far-off pose must not overflow the integer cast. */
+    const int lo = max(0, (int)floor(fmax(box[a], -1.0f)));
+    const int hi = min(d[a] - 1, (int)floor(fmin(box[3 + a], (float)d[a])));
+    overlap[a] = lo;
+    overlap[3 + a] = hi;
+    ok = ok && lo <= hi;
+  }
+  overlap[6] = ok;
+}
+
+static int bin_of_value(const uint num_bins, const double max_value, const double value)
+{
+  const double scaled = num_bins * value / max_value;
+  if (!(scaled > 0.0))
+    return 1;
+  if (scaled >= num_bins)
+    return (int)num_bins;
+  return 1 + (int)scaled;
+}
+
+static int voxel_bin(const uint feature, const uint num_bins, const double max_value,
+                     const Moments m)
+{
+  if (m.count == 0u)
+    return 0;
+  double value;
+  if (feature == 1u) { /* PointCount */
+    value = (double)m.count;
+  }
+  else { /* VarianceZ: var(z) / R_v^2 = (n S2 - S1^2) / (n^2 L^2) */
+    const double n = (double)m.count;
+    const double s1 = (double)m.sum_q;
+    const double s2 = (double)(((ulong)m.sum_q2_hi << 32) | (ulong)m.sum_q2_lo);
+    const double numerator = fmax(0.0, n * s2 - s1 * s1);
+    value = numerator / (n * n * (double)HEIGHT_LEVELS * HEIGHT_LEVELS);
+  }
+  return bin_of_value(num_bins, max_value, value);
+}
+
+/* Source-occupied voxels: (target bin, source bin). */
+__kernel void histogram_touched(__global const uint* touched,
+                                __global const uint* counters,
+                                __global const Moments* moments,
+                                __global const uchar* target_bins,
+                                const uint feature,
+                                const uint num_bins,   /* occupied bins B */
+                                const double max_value,
+                                const uint spare_cell,
+                                __global uint* joint,  /* (B + 1)^2 */
+                                __local uint* local_joint)
+{
+  const uint side = num_bins + 1;
+  for (uint k = get_local_id(0); k < side * side; k += get_local_size(0))
+    local_joint[k] = 0;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  const uint i = get_global_id(0);
+  if (i < counters[0]) {
+    const uint cell = touched[i];
+    if (cell != spare_cell) {
+      const int source_bin = voxel_bin(feature, num_bins, max_value, moments[cell]);
+      atomic_inc(&local_joint[target_bins[cell] * side + source_bin]);
+    }
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint k = get_local_id(0); k < side * side; k += get_local_size(0))
+    if (local_joint[k])
+      atomic_add(&joint[k], local_joint[k]);
+}
+
+/* Target-occupied voxels in the overlap that the source left empty: (target bin, 0). */
+__kernel void histogram_target_only(__global const OccupiedVoxel* occupied,
+                                    const uint num_occupied,
+                                    __global const Moments* moments,
+                                    __global const int* overlap,
+                                    const uint num_bins,
+                                    __global uint* joint,
+                                    __local uint* local_joint)
+{
+  const uint side = num_bins + 1;
+  for (uint k = get_local_id(0); k < side; k += get_local_size(0))
+    local_joint[k] = 0;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  const uint i = get_global_id(0);
+  if (i < num_occupied && overlap[6]) {
+    const OccupiedVoxel v = occupied[i];
+    if (v.ix >= overlap[0] && v.iy >= overlap[1] && v.iz >= overlap[2] && v.ix <= overlap[3] &&
+        v.iy <= overlap[4] && v.iz <= overlap[5] && moments[v.cell].count == 0u)
+      atomic_inc(&local_joint[v.bin]);
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint k = get_local_id(0); k < side; k += get_local_size(0))
+    if (local_joint[k])
+      atomic_add(&joint[k * side], local_joint[k]);
+}
+
+/* Zero the voxels this evaluation touched, ready for the next one. */
+__kernel void clear_touched(__global const uint* touched,
+                            __global const uint* counters,
+                            __global Moments* moments)
+{
+  const uint i = get_global_id(0);
+  if (i < counters[0]) {
+    const Moments zero = {0u, 0u, 0u, 0u};
+    moments[touched[i]] = zero;
+  }
+}

@@ -1,0 +1,34 @@
+/*
+ * pcl_mi: the OpenCL backend's entry points. Only built with PCL_MI_WITH_OPENCL; no
+ * OpenCL type appears here.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include "backend/scoring_backend.h"
+
+#include <memory>
+#include <string>
+
+namespace pcl_mi {
+namespace backend {
+
+/** \brief An OpenCL device with its context and built kernels (opaque). */
+struct OpenClDevice;
+
+/** \brief The device at (platform, device) index, or with -1/-1 the first GPU, else the
+ * first device; opened and its kernels built once per process. Null (with \a error: the
+ * OpenCL error name, and the build log if the kernels do not build) when unavailable. */
+std::shared_ptr<OpenClDevice>
+openClDevice(int platform, int device, std::string& error);
+
+/** \brief The device's name as its driver reports it. */
+std::string
+openClDeviceName(const OpenClDevice& device);
+
+/** \brief A backend on \a device. Throws std::runtime_error on OpenCL errors. */
+std::unique_ptr<ScoringBackend>
+makeOpenClBackend(std::shared_ptr<OpenClDevice> device);
+
+} // namespace backend
+} // namespace pcl_mi
