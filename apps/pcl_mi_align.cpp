@@ -51,7 +51,12 @@ printHelp(const char* program)
       "                        (default on)\n"
       "  -paper                the paper's exact method: one simplex, one grid, every\n"
       "                        point, no mirrored start, restarts or refinement\n"
-      "  -profile              print where the time went, stage by stage\n"
+      "  -backend cpu|opencl|auto   where the cost evaluations run (default cpu; auto:\n"
+      "                        OpenCL if a device is usable, else cpu)\n"
+      "  -opencl_device P,D    OpenCL platform and device index as clinfo -l lists them\n"
+      "                        (default: the first GPU, else the first device)\n"
+      "  -profile              print where the time went, stage by stage, and the\n"
+      "                        backend's own stages (OpenCL: kernel times from events)\n"
       "  -aligned FILE         aligned source cloud (default aligned.pcd)\n"
       "  -merged FILE          target (grey) + aligned source (red) as XYZRGB for\n"
       "                        pcl_viewer (default merged.pcd)\n"
@@ -205,6 +210,25 @@ main(int argc, char** argv)
   parameters.max_iterations = max_iterations;
   pcl::console::parse_argument(argc, argv, "-levels", parameters.pyramid_levels);
   pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
+  std::string backend = "cpu";
+  pcl::console::parse_argument(argc, argv, "-backend", backend);
+  if (backend == "opencl")
+    parameters.backend = pcl_mi::Backend::OpenCL;
+  else if (backend == "auto")
+    parameters.backend = pcl_mi::Backend::Auto;
+  else if (backend != "cpu") {
+    print_error("pcl_mi_align: -backend must be cpu, opencl or auto, got '%s'\n", backend.c_str());
+    return 1;
+  }
+  std::vector<int> opencl_device;
+  if (pcl::console::parse_x_arguments(argc, argv, "-opencl_device", opencl_device) >= 0) {
+    if (opencl_device.size() != 2) {
+      print_error("pcl_mi_align: -opencl_device needs PLATFORM,DEVICE\n");
+      return 1;
+    }
+    parameters.opencl_platform = opencl_device[0];
+    parameters.opencl_device = opencl_device[1];
+  }
   std::string refinement;
   if (pcl::console::parse_argument(argc, argv, "-refinement", refinement) >= 0) {
     if (refinement != "on" && refinement != "off") {
@@ -274,6 +298,11 @@ main(int argc, char** argv)
     print_info("  %-16s %8s %10s\n", "stage", "calls", "total ms");
     for (const pcl_mi::StageTiming& stage : reg.getLastResult().stages)
       print_value("  %-16s %8d %10.2f\n", stage.name.c_str(), stage.calls, stage.total_ms);
+    print_info("Backend %s, its stages summed over the alignment:\n",
+               reg.core().backendName().c_str());
+    print_info("  %-30s %8s %10s\n", "stage", "calls", "total ms");
+    for (const pcl_mi::StageTiming& stage : reg.getBackendProfile())
+      print_value("  %-30s %8d %10.2f\n", stage.name.c_str(), stage.calls, stage.total_ms);
   }
   if (has_reference) {
     const auto e = pcl_mi::io::poseError(result, reference);

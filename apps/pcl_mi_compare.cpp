@@ -191,6 +191,7 @@ yawDegrees(const Eigen::Matrix4d& t)
 /** Overrides of the MI defaults from the command line (negative: keep the default). */
 struct MiOverrides {
   int subdivision = -1, levels = -1, restarts = -1;
+  pcl_mi::Backend backend = pcl_mi::Backend::Cpu;
 } mi_overrides;
 
 /** Settings that use no knowledge of the true pose; see the README's comparison notes. */
@@ -211,6 +212,7 @@ makeMethod(const std::string& name)
       p.pyramid_levels = mi_overrides.levels;
     if (mi_overrides.restarts >= 0)
       p.restarts = mi_overrides.restarts;
+    p.backend = mi_overrides.backend;
     if (!mi->setParameters(p))
       return nullptr;
     return mi;
@@ -417,6 +419,7 @@ printHelp(const char* program)
       "  -pairs SS:i:j,...     only these pairs (sequence SS, frames i < j)\n"
       "  -stride K             every K-th pair only (default 1)\n"
       "  -repeat N             run every alignment N times, report the median time\n"
+      "  -backend cpu|opencl|auto   where MI's cost evaluations run (default cpu)\n"
       "  -directions both|forward|backward   (default both)\n"
       "  -perturb T,YAW        guess = reference perturbed by T m (random horizontal\n"
       "                        direction) and +-YAW deg (default: identity guess, the paper's\n"
@@ -466,6 +469,17 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-subdivision", mi_overrides.subdivision);
   pcl::console::parse_argument(argc, argv, "-levels", mi_overrides.levels);
   pcl::console::parse_argument(argc, argv, "-restarts", mi_overrides.restarts);
+  std::string backend = "cpu";
+  pcl::console::parse_argument(argc, argv, "-backend", backend);
+  if (backend == "opencl")
+    mi_overrides.backend = pcl_mi::Backend::OpenCL;
+  else if (backend == "auto")
+    mi_overrides.backend = pcl_mi::Backend::Auto;
+  else if (backend != "cpu") {
+    std::fprintf(stderr, "pcl_mi_compare: -backend must be cpu, opencl or auto, got '%s'\n",
+                 backend.c_str());
+    return 1;
+  }
   pcl::console::parse_x_arguments(argc, argv, "-distance", distance);
   pcl::console::parse_x_arguments(argc, argv, "-perturb", perturb);
   pcl::console::parse_x_arguments(argc, argv, "-success", success);

@@ -6,6 +6,7 @@ packages=(
   build-essential cmake pkg-config
   libpcl-dev libeigen3-dev libflann-dev libboost-all-dev libvtk9-dev libopenmpi-dev
   libgtest-dev
+  ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo
   python3-matplotlib python3-numpy xvfb xauth
 )
 missing=()
