@@ -7,6 +7,7 @@ packages=(
   libpcl-dev libeigen3-dev libflann-dev libboost-all-dev libvtk9-dev libopenmpi-dev
   libgtest-dev
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo
+  clang libclang-rt-14-dev
   python3-matplotlib python3-numpy xvfb xauth
 )
 missing=()

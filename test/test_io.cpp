@@ -110,3 +110,38 @@ TEST(CloudIo, PoseErrorOfKnownOffsets)
   const auto r = pcl_mi::io::poseError(ref * test_data::planarMotion(0, 0, 2), ref);
   EXPECT_NEAR(r.rotation_deg, 2.0, 1e-9);
 }
+
+TEST(CloudIo, FuzzFoundInputsGiveErrorsNotCrashes)
+{
+  // Every file in test/data/fuzz_regressions was a crash found by fuzz/fuzz_readers.
+  for (const char* name : {"pcd_header_throws.pcd", "pcd_huge_count.pcd", "pcd_duplicate_field.pcd",
+                           "ply_huge_element_count.ply", "pcd_garbage_points.pcd",
+                           "pcd_garbage_height.pcd", "pcd_state_corruption.pcd"}) {
+    SCOPED_TRACE(name);
+    pcl::PointCloud<pcl::PointXYZI> cloud;
+    const std::string error = pcl_mi::io::loadCloud(
+        std::string(PCL_MI_TEST_DATA_DIR) + "/fuzz_regressions/" + name, cloud);
+    EXPECT_NE(error, "");
+  }
+}
+
+TEST(CloudIo, ConvertsCoordinatesOfAnyNumericType)
+{
+  // pcl::fromPCLPointCloud2 leaves non-float32 coordinates at zero; the loader must not.
+  const std::string path = testing::TempDir() + "pcl_mi_double.pcd";
+  {
+    std::ofstream out(path);
+    out << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 8 8 2\nTYPE F F I\nCOUNT 1 1 1\n"
+           "WIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA ascii\n"
+           "1000000.25 -2.5 7\n3.125 4 -9\n";
+  }
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  ASSERT_EQ(pcl_mi::io::loadCloud(path, cloud), "");
+  ASSERT_EQ(cloud.size(), 2u);
+  EXPECT_FLOAT_EQ(cloud[0].x, 1000000.25f);
+  EXPECT_FLOAT_EQ(cloud[0].y, -2.5f);
+  EXPECT_FLOAT_EQ(cloud[0].z, 7.0f);
+  EXPECT_FLOAT_EQ(cloud[1].x, 3.125f);
+  EXPECT_FLOAT_EQ(cloud[1].z, -9.0f);
+  std::remove(path.c_str());
+}

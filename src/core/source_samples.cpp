@@ -60,20 +60,26 @@ sortedCellKeys(std::size_t count,
 {
   const double inv = 1.0 / cell_size;
   constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-  std::vector<Eigen::Matrix<std::uint64_t, 3, 1>> cells(count);
-  Eigen::Matrix<std::uint64_t, 3, 1> max_cell = Eigen::Matrix<std::uint64_t, 3, 1>::Zero();
-  for (std::size_t i = 0; i < count; ++i) {
+  auto cellOf = [&](std::size_t i) {
     const Eigen::Vector3d c =
         ((position_of(i) - min).template cast<double>() * inv).array().floor().max(0.0);
+    Eigen::Matrix<std::uint64_t, 3, 1> cell;
     for (int a = 0; a < 3; ++a)
-      cells[i][a] = std::min<std::uint64_t>(static_cast<std::uint64_t>(c[a]), kMask);
-    max_cell = max_cell.cwiseMax(cells[i]);
-  }
+      cell[a] = std::min<std::uint64_t>(static_cast<std::uint64_t>(c[a]), kMask);
+    return cell;
+  };
+  // Two passes (extent, then keys) rather than storing every cell: memory stays at the
+  // keys alone, which matters for clouds of tens of millions of points.
+  Eigen::Matrix<std::uint64_t, 3, 1> max_cell = Eigen::Matrix<std::uint64_t, 3, 1>::Zero();
+  for (std::size_t i = 0; i < count; ++i)
+    max_cell = max_cell.cwiseMax(cellOf(i));
   const int bx = bitsFor(max_cell.x()), by = bitsFor(max_cell.y()), bz = bitsFor(max_cell.z());
   std::vector<KeyedIndex> keyed(count);
-  for (std::size_t i = 0; i < count; ++i)
-    keyed[i] = {(cells[i].z() << (bx + by)) | (cells[i].y() << bx) | cells[i].x(),
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto cell = cellOf(i);
+    keyed[i] = {(cell.z() << (bx + by)) | (cell.y() << bx) | cell.x(),
                 static_cast<std::uint32_t>(i)};
+  }
   radixSortByKey(keyed, bx + by + bz);
   return keyed;
 }
