@@ -6,12 +6,14 @@
 #include "test_data.h"
 
 #include <pcl_mi/mutual_information_registration.h>
+#include <pcl_mi/registration_core.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/kdtree/kdtree_flann.h>
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <thread>
 #include <tuple>
 
@@ -47,6 +49,14 @@ protected:
     target_ = test_data::loadScan(pair.sequence, target_frame);
     reference_ = test_data::referenceTransform(pair.sequence, target_frame, source_frame);
     reg_.setFeature(feature);
+    // The same acceptance cases on another backend (ctest registration_on_opencl).
+    if (const char* backend = std::getenv("PCL_MI_TEST_BACKEND")) {
+      const bool opencl = std::string(backend) == "opencl";
+      std::string why;
+      if (opencl && !std::getenv("PCL_MI_REQUIRE_OPENCL") && !pcl_mi::openClAvailable(&why))
+        GTEST_SKIP() << "no OpenCL device: " << why;
+      reg_.setBackend(opencl ? pcl_mi::Backend::OpenCL : pcl_mi::Backend::Cpu);
+    }
     reg_.setInputSource(source_);
     reg_.setInputTarget(target_);
   }
