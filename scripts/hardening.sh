@@ -4,13 +4,15 @@
 #      running the unit tests, a reduced set of registration tests and the OpenCL parity
 #      tests;
 #   2. bounded libFuzzer runs of the readers and of align() from the seed corpus in fuzz/;
-#   3. a short soak run (memory flat, no silent failure).
+#   3. a soak run on the release build of scripts/test.sh (memory flat, no silent failure)
+#      and a short one under the sanitizers (memory errors, leaks).
 # Longer runs: FUZZ_SECONDS=3600 SOAK_ALIGNMENTS=20000 bash scripts/hardening.sh
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build="${PCL_MI_HARDENING_DIR:-$root/build-hardening}"
 fuzz_seconds="${FUZZ_SECONDS:-60}"
-soak_alignments="${SOAK_ALIGNMENTS:-200}"
+soak_alignments="${SOAK_ALIGNMENTS:-500}"
+release_build="${PCL_MI_BUILD_DIR:-$root/build}"
 bash "$root/scripts/setup_debian.sh"
 
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
@@ -41,5 +43,8 @@ for target in readers align; do
     -rss_limit_mb=4096 -max_len=65536 -print_final_stats=1 2>&1 | tail -n 25
 done
 
-echo "== soak, ${soak_alignments} alignments"
-"$build/test/pcl_mi_soak" "$soak_alignments"
+echo "== soak under the sanitizers, 20 alignments"
+"$build/test/pcl_mi_soak" 20 cpu --no-memory-check
+echo "== soak, ${soak_alignments} alignments (release build)"
+cmake --build "$release_build" -j "$(nproc)" --target pcl_mi_soak
+"$release_build/test/pcl_mi_soak" "$soak_alignments"

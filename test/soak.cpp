@@ -6,7 +6,8 @@
  * A finite pose reported as converged but more than 0.5 m / 2 deg off is MI settling in a
  * wrong optimum, its known failure mode (0.3 % of the shared pairs under the perturbation
  * protocol): those are counted and printed, and fail the run above 2 %.
- *   pcl_mi_soak [ALIGNMENTS=2000] [BACKEND=cpu|opencl]
+ *   pcl_mi_soak [ALIGNMENTS=2000] [BACKEND=cpu|opencl] [--no-memory-check]
+ * (--no-memory-check for sanitizer builds, whose allocator quarantine grows by design.)
  * Exit status 0 only if both hold. Not part of ctest; scripts/hardening.sh runs it briefly.
  */
 #include "test_data.h"
@@ -46,6 +47,7 @@ main(int argc, char** argv)
 {
   const int total = argc > 1 ? std::atoi(argv[1]) : 2000;
   const std::string backend_name = argc > 2 ? argv[2] : "cpu";
+  const bool memory_check = !(argc > 3 && std::string(argv[3]) == "--no-memory-check");
   const pcl_mi::Backend backend =
       backend_name == "opencl" ? pcl_mi::Backend::OpenCL : pcl_mi::Backend::Cpu;
   struct Pair {
@@ -129,5 +131,7 @@ main(int argc, char** argv)
               total, backend_name.c_str(), succeeded.load(), reported.load(),
               wrong_optimum.load(), silent.load(), rss_start, rss_after_warm_up, warm_up, rss_end,
               growth, kMaxGrowthKb);
-  return silent == 0 && wrong_optimum <= total / 50 && growth <= kMaxGrowthKb ? 0 : 1;
+  return silent == 0 && wrong_optimum <= total / 50 && (!memory_check || growth <= kMaxGrowthKb)
+             ? 0
+             : 1;
 }
