@@ -61,6 +61,31 @@ static void add_u64(volatile __global uint* lo, volatile __global uint* hi, ulon
     atomic_add(hi, carry);
 }
 
+/* Work-group reduction of per-item boxes (6 floats each: min xyz, max xyz) into box[0..5];
+ * min and max are exact in any order. */
+static void reduce_boxes(__local float* box, const uint lid)
+{
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint stride = get_local_size(0) / 2; stride > 0; stride /= 2) {
+    if (lid < stride)
+      for (int a = 0; a < 3; ++a) {
+        box[6 * lid + a] = fmin(box[6 * lid + a], box[6 * (lid + stride) + a]);
+        box[6 * lid + 3 + a] = fmax(box[6 * lid + 3 + a], box[6 * (lid + stride) + 3 + a]);
+      }
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+}
+
+static void store_box(__local float* box, const uint lid, const float3 mn, const float3 mx)
+{
+  box[6 * lid + 0] = mn.x;
+  box[6 * lid + 1] = mn.y;
+  box[6 * lid + 2] = mn.z;
+  box[6 * lid + 3] = mx.x;
+  box[6 * lid + 4] = mx.y;
+  box[6 * lid + 5] = mx.z;
+}
+
 __kernel void map_samples(__global const Sample* samples,
                           const uint num_samples,
                           const Pose pose,
@@ -110,22 +135,9 @@ __kernel void map_samples(__global const Sample* samples,
       add_u64(&m->sum_q2_lo, &m->sum_q2_hi, q2);
     }
   }
-  /* Work-group bounding box: min and max are exact in any order. */
-  box[6 * lid + 0] = mn.x;
-  box[6 * lid + 1] = mn.y;
-  box[6 * lid + 2] = mn.z;
-  box[6 * lid + 3] = mx.x;
-  box[6 * lid + 4] = mx.y;
-  box[6 * lid + 5] = mx.z;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (uint stride = get_local_size(0) / 2; stride > 0; stride /= 2) {
-    if (lid < stride)
-      for (int a = 0; a < 3; ++a) {
-        box[6 * lid + a] = fmin(box[6 * lid + a], box[6 * (lid + stride) + a]);
-        box[6 * lid + 3 + a] = fmax(box[6 * lid + 3 + a], box[6 * (lid + stride) + 3 + a]);
-      }
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
+  /* Work-group bounding box. */
+  store_box(box, lid, mn, mx);
+  reduce_boxes(box, lid);
   if (lid == 0)
     for (int a = 0; a < 6; ++a)
       group_boxes[6 * get_group_id(0) + a] = box[a];
@@ -147,21 +159,8 @@ __kernel void reduce_overlap(__global const float* group_boxes,
     mn = fmin(mn, (float3)(group_boxes[6 * g], group_boxes[6 * g + 1], group_boxes[6 * g + 2]));
     mx = fmax(mx, (float3)(group_boxes[6 * g + 3], group_boxes[6 * g + 4], group_boxes[6 * g + 5]));
   }
-  box[6 * lid + 0] = mn.x;
-  box[6 * lid + 1] = mn.y;
-  box[6 * lid + 2] = mn.z;
-  box[6 * lid + 3] = mx.x;
-  box[6 * lid + 4] = mx.y;
-  box[6 * lid + 5] = mx.z;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (uint stride = get_local_size(0) / 2; stride > 0; stride /= 2) {
-    if (lid < stride)
-      for (int a = 0; a < 3; ++a) {
-        box[6 * lid + a] = fmin(box[6 * lid + a], box[6 * (lid + stride) + a]);
-        box[6 * lid + 3 + a] = fmax(box[6 * lid + 3 + a], box[6 * (lid + stride) + 3 + a]);
-      }
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
+  store_box(box, lid, mn, mx);
+  reduce_boxes(box, lid);
   if (lid != 0)
     return;
   const int d[3] = {dims.x, dims.y, dims.z};

@@ -84,6 +84,27 @@ sortedCellKeys(std::size_t count,
   return keyed;
 }
 
+/** Appends the sample of \a n points whose offsets from \a anchor sum to \a sum and whose
+ * outer products sum to \a sum_outer (relative to the anchor, for accuracy). */
+void
+appendSummary(SourceSamples& out,
+              const Eigen::Vector3d& anchor,
+              double n,
+              const Eigen::Vector3d& sum,
+              const Eigen::Matrix3d& sum_outer)
+{
+  const Eigen::Vector3d mean = sum / n;
+  const Eigen::Matrix3d cov = sum_outer / n - mean * mean.transpose();
+  SourceSample s;
+  s.position = (anchor + mean).cast<float>();
+  s.count = static_cast<std::uint32_t>(n);
+  const double c[6] = {cov(0, 0), cov(0, 1), cov(0, 2), cov(1, 1), cov(1, 2), cov(2, 2)};
+  for (int i = 0; i < 6; ++i)
+    s.covariance[i] = static_cast<float>(c[i]);
+  out.has_covariance = out.has_covariance || s.count > 1;
+  out.samples.push_back(s);
+}
+
 } // namespace
 
 SourceSamples
@@ -122,17 +143,7 @@ makeSourceSamples(const PointList& points, double cell_size)
       sum += d;
       sum_outer += d * d.transpose();
     }
-    const double n = static_cast<double>(end - begin);
-    const Eigen::Vector3d mean = sum / n;
-    const Eigen::Matrix3d cov = sum_outer / n - mean * mean.transpose();
-    SourceSample s;
-    s.position = (anchor + mean).cast<float>();
-    s.count = static_cast<std::uint32_t>(end - begin);
-    const double c[6] = {cov(0, 0), cov(0, 1), cov(0, 2), cov(1, 1), cov(1, 2), cov(2, 2)};
-    for (int i = 0; i < 6; ++i)
-      s.covariance[i] = static_cast<float>(c[i]);
-    out.has_covariance = out.has_covariance || s.count > 1;
-    out.samples.push_back(s);
+    appendSummary(out, anchor, static_cast<double>(end - begin), sum, sum_outer);
     begin = end;
   }
   return out;
@@ -178,16 +189,7 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
         sum += m * d;
         sum_outer += m * (cov + d * d.transpose());
       }
-      const Eigen::Vector3d mean = sum / n;
-      const Eigen::Matrix3d cov = sum_outer / n - mean * mean.transpose();
-      SourceSample s;
-      s.position = (anchor + mean).cast<float>();
-      s.count = static_cast<std::uint32_t>(n);
-      const double c[6] = {cov(0, 0), cov(0, 1), cov(0, 2), cov(1, 1), cov(1, 2), cov(2, 2)};
-      for (int i = 0; i < 6; ++i)
-        s.covariance[i] = static_cast<float>(c[i]);
-      out.has_covariance = out.has_covariance || s.count > 1;
-      out.samples.push_back(s);
+      appendSummary(out, anchor, n, sum, sum_outer);
       begin = end;
     }
     pyramid.push_back(std::move(out));
