@@ -116,12 +116,14 @@ TEST(CloudIo, FuzzFoundInputsGiveErrorsNotCrashes)
   // Every file in test/data/fuzz_regressions was a crash found by fuzz/fuzz_readers.
   for (const char* name : {"pcd_header_throws.pcd", "pcd_huge_count.pcd", "pcd_duplicate_field.pcd",
                            "ply_huge_element_count.ply", "pcd_garbage_points.pcd",
-                           "pcd_garbage_height.pcd", "pcd_state_corruption.pcd"}) {
+                           "pcd_garbage_height.pcd", "pcd_state_corruption.pcd",
+                           "pcd_int8_out_of_range.pcd"}) {
     SCOPED_TRACE(name);
     pcl::PointCloud<pcl::PointXYZI> cloud;
     const std::string error = pcl_mi::io::loadCloud(
         std::string(PCL_MI_TEST_DATA_DIR) + "/fuzz_regressions/" + name, cloud);
-    EXPECT_NE(error, "");
+    // An error, or a cloud; the sanitizer build (scripts/hardening.sh) checks for UB.
+    EXPECT_TRUE(!error.empty() || !cloud.empty());
   }
 }
 

@@ -54,6 +54,18 @@ hasXyz(const pcl::PCLPointCloud2& blob)
   return x && y && z;
 }
 
+/** \a v as float, beyond float's range as +-infinity (a plain conversion is undefined). */
+float
+toFloat(double v)
+{
+  constexpr double kMax = std::numeric_limits<float>::max();
+  if (v > kMax)
+    return std::numeric_limits<float>::infinity();
+  if (v < -kMax)
+    return -std::numeric_limits<float>::infinity();
+  return static_cast<float>(v);
+}
+
 /** Value of a numeric field of any PCL datatype, as double. */
 double
 fieldValue(const std::uint8_t* at, std::uint8_t datatype)
@@ -142,12 +154,11 @@ convertBlob(const pcl::PCLPointCloud2& blob,
     for (std::size_t col = 0; col < blob.width; ++col, ++i) {
       const std::uint8_t* point = blob.data.data() + row * blob.row_step + col * blob.point_step;
       pcl::PointXYZI& p = cloud[i];
-      p.x = static_cast<float>(fieldValue(point + fields[0]->offset, fields[0]->datatype));
-      p.y = static_cast<float>(fieldValue(point + fields[1]->offset, fields[1]->datatype));
-      p.z = static_cast<float>(fieldValue(point + fields[2]->offset, fields[2]->datatype));
-      p.intensity = fields[3] ? static_cast<float>(fieldValue(point + fields[3]->offset,
-                                                              fields[3]->datatype))
-                              : 0.0f;
+      p.x = toFloat(fieldValue(point + fields[0]->offset, fields[0]->datatype));
+      p.y = toFloat(fieldValue(point + fields[1]->offset, fields[1]->datatype));
+      p.z = toFloat(fieldValue(point + fields[2]->offset, fields[2]->datatype));
+      p.intensity =
+          fields[3] ? toFloat(fieldValue(point + fields[3]->offset, fields[3]->datatype)) : 0.0f;
     }
   return {};
 }
@@ -331,15 +342,20 @@ readPcdData(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2& bl
           std::memcpy(out, &value, sizeof(value));
           out += sizeof(value);
         };
+        // Integers saturate at their type's range (a float-to-integer conversion out of
+        // range is undefined; found by fuzz/fuzz_readers); NaN becomes 0.
+        auto saturated = [v](double lo, double hi) {
+          return std::isfinite(v) || std::isinf(v) ? std::fmin(std::fmax(v, lo), hi) : 0.0;
+        };
         switch (type) {
         case pcl::PCLPointField::FLOAT64: put(v); break;
-        case pcl::PCLPointField::FLOAT32: put(static_cast<float>(v)); break;
-        case pcl::PCLPointField::INT8: put(static_cast<std::int8_t>(std::isfinite(v) ? v : 0)); break;
-        case pcl::PCLPointField::INT16: put(static_cast<std::int16_t>(std::isfinite(v) ? v : 0)); break;
-        case pcl::PCLPointField::INT32: put(static_cast<std::int32_t>(std::isfinite(v) ? std::fmin(std::fmax(v, -2147483648.0), 2147483647.0) : 0)); break;
-        case pcl::PCLPointField::UINT8: put(static_cast<std::uint8_t>(std::isfinite(v) && v >= 0 ? std::fmin(v, 255.0) : 0)); break;
-        case pcl::PCLPointField::UINT16: put(static_cast<std::uint16_t>(std::isfinite(v) && v >= 0 ? std::fmin(v, 65535.0) : 0)); break;
-        default: put(static_cast<std::uint32_t>(std::isfinite(v) && v >= 0 ? std::fmin(v, 4294967295.0) : 0)); break;
+        case pcl::PCLPointField::FLOAT32: put(toFloat(v)); break;
+        case pcl::PCLPointField::INT8: put(static_cast<std::int8_t>(saturated(-128.0, 127.0))); break;
+        case pcl::PCLPointField::INT16: put(static_cast<std::int16_t>(saturated(-32768.0, 32767.0))); break;
+        case pcl::PCLPointField::INT32: put(static_cast<std::int32_t>(saturated(-2147483648.0, 2147483647.0))); break;
+        case pcl::PCLPointField::UINT8: put(static_cast<std::uint8_t>(saturated(0.0, 255.0))); break;
+        case pcl::PCLPointField::UINT16: put(static_cast<std::uint16_t>(saturated(0.0, 65535.0))); break;
+        default: put(static_cast<std::uint32_t>(saturated(0.0, 4294967295.0))); break;
         }
       }
   return {};
