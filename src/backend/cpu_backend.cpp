@@ -46,13 +46,9 @@ public:
   {
     if (calls_ == 0)
       return;
-    for (StageTiming& s : stages)
-      if (s.name == "cpu: joint histogram") {
-        s.calls += calls_;
-        s.total_ms += total_ms_;
-        return;
-      }
-    stages.push_back({"cpu: joint histogram", calls_, total_ms_});
+    StageTiming& stage = stageNamed(stages, "cpu: joint histogram");
+    stage.calls += calls_;
+    stage.total_ms += total_ms_;
   }
 
   void
@@ -91,20 +87,17 @@ private:
     // lies inside the source's box too, so they are exactly the samples in the overlap
     // (box intersection) computed below. The test runs on floats so far samples are never
     // cast to int.
-    const float inv_res = 1.0f / g.resolution;
-    const Eigen::Matrix3f r = rotation * inv_res;
-    const Eigen::Vector3f t = (translation - g.origin) * inv_res;
+    const core::GridPose pose = core::gridPose(g, rotation, translation);
+    const Eigen::Matrix3f& r = pose.rotation;
+    const Eigen::Vector3f& t = pose.translation;
     const Eigen::Vector3f grid_end = g.dims.cast<float>();
     // The largest floats below the grid's end: inside samples clamp to themselves.
     const Eigen::Vector3f grid_last(std::nextafter(grid_end.x(), 0.0f),
                                     std::nextafter(grid_end.y(), 0.0f),
                                     std::nextafter(grid_end.z(), 0.0f));
     const std::size_t spare_cell = g.cellCount();
-    // A sample's z variance after rotation is r_z^T C r_z (r_z: the rotation's z row), here
-    // in quantisation levels squared.
-    const Eigen::Vector3f rz = rotation.row(2).transpose();
-    const float variance_scale = static_cast<float>(core::kHeightLevels) *
-                                 core::kHeightLevels * inv_res * inv_res;
+    const Eigen::Vector3f& rz = pose.rotation_z;
+    const float variance_scale = pose.variance_scale;
     const bool has_covariance = source_->has_covariance;
     const std::vector<core::SourceSample>& samples = source_->samples;
     Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());

@@ -460,19 +460,16 @@ public:
       return;
 
     // The same float operations as the CPU backend, in the same order.
-    const float inv_res = 1.0f / g.resolution;
-    const Eigen::Matrix3f r = rotation * inv_res;
-    const Eigen::Vector3f t = (translation - g.origin) * inv_res;
+    const core::GridPose grid_pose = core::gridPose(g, rotation, translation);
     DevicePose pose;
     for (int row = 0; row < 3; ++row)
       for (int col = 0; col < 3; ++col)
-        pose.r[3 * row + col] = r(row, col);
+        pose.r[3 * row + col] = grid_pose.rotation(row, col);
     for (int a = 0; a < 3; ++a) {
-      pose.t[a] = t[a];
-      pose.rz[a] = rotation(2, a);
+      pose.t[a] = grid_pose.translation[a];
+      pose.rz[a] = grid_pose.rotation_z[a];
     }
-    pose.variance_scale = static_cast<float>(core::kHeightLevels) * core::kHeightLevels *
-                          inv_res * inv_res;
+    pose.variance_scale = grid_pose.variance_scale;
     const cl_int4 dims = {{g.dims.x(), g.dims.y(), g.dims.z(), 0}};
     const cl_uint num_samples = static_cast<cl_uint>(n);
     const cl_uint has_covariance = source_->has_covariance ? 1u : 0u;
@@ -566,14 +563,12 @@ public:
   appendProfile(std::vector<StageTiming>& stages) const override
   {
     for (const StageTiming& s : profile_) {
-      auto it = std::find_if(stages.begin(), stages.end(),
-                             [&](const StageTiming& t) { return t.name == s.name; });
-      if (it == stages.end())
-        stages.push_back(s);
-      else if (s.name.find("program build") == std::string::npos) { // shared: count once
-        it->calls += s.calls;
-        it->total_ms += s.total_ms;
-      }
+      StageTiming& stage = stageNamed(stages, s.name);
+      // The backends of one device share its program: its build counts once.
+      if (stage.calls > 0 && s.name.find("program build") != std::string::npos)
+        continue;
+      stage.calls += s.calls;
+      stage.total_ms += s.total_ms;
     }
   }
 
@@ -615,13 +610,9 @@ private:
   void
   add(const std::string& name, double ms)
   {
-    for (StageTiming& s : profile_)
-      if (s.name == name) {
-        ++s.calls;
-        s.total_ms += ms;
-        return;
-      }
-    profile_.push_back({name, 1, ms});
+    StageTiming& stage = stageNamed(profile_, name);
+    ++stage.calls;
+    stage.total_ms += ms;
   }
   void
   addDevice(const char* stage, double ms)

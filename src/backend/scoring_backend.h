@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace pcl_mi {
@@ -52,6 +53,18 @@ public:
   virtual void
   resetProfile() = 0;
 };
+
+/** \brief The entry of \a stages called \a name, appended with no calls if absent: the
+ * backends sum their timings per stage name. */
+inline StageTiming&
+stageNamed(std::vector<StageTiming>& stages, const std::string& name)
+{
+  for (StageTiming& s : stages)
+    if (s.name == name)
+      return s;
+  stages.push_back({name, 0, 0.0});
+  return stages.back();
+}
 
 /** \brief The reference CPU backend. */
 std::unique_ptr<ScoringBackend>

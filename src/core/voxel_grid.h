@@ -59,6 +59,32 @@ struct GridGeometry {
   }
 };
 
+/** \brief A source-to-target pose in a grid's units, as every backend applies it: a local
+ * source point p lies in cell floor(rotation * p + translation). The backends must agree
+ * bit for bit, so they all take it from gridPose(). */
+struct GridPose {
+  Eigen::Matrix3f rotation;    ///< R / resolution
+  Eigen::Vector3f translation; ///< (t - origin) / resolution
+  /** R's z row: a sample with covariance C has z variance rotation_z^T C rotation_z. */
+  Eigen::Vector3f rotation_z;
+  /** From a z variance in m^2 to quantisation levels squared (see kHeightLevels). */
+  float variance_scale;
+};
+
+/** \brief The pose (rotation, translation) from the source's local frame to the target's in
+ * the units of grid \a g. */
+inline GridPose
+gridPose(const GridGeometry& g, const Eigen::Matrix3f& rotation, const Eigen::Vector3f& translation)
+{
+  const float inv_res = 1.0f / g.resolution;
+  GridPose pose;
+  pose.rotation = rotation * inv_res;
+  pose.translation = (translation - g.origin) * inv_res;
+  pose.rotation_z = rotation.row(2).transpose();
+  pose.variance_scale = static_cast<float>(kHeightLevels) * kHeightLevels * inv_res * inv_res;
+  return pose;
+}
+
 /** \brief An occupied target voxel: its cell coordinates and feature bin. */
 struct OccupiedVoxel {
   std::uint32_t cell;
