@@ -212,11 +212,7 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
   std::string backend = "cpu";
   pcl::console::parse_argument(argc, argv, "-backend", backend);
-  if (backend == "opencl")
-    parameters.backend = pcl_mi::Backend::OpenCL;
-  else if (backend == "auto")
-    parameters.backend = pcl_mi::Backend::Auto;
-  else if (backend != "cpu") {
+  if (!pcl_mi::parseBackend(backend, parameters.backend)) {
     print_error("pcl_mi_align: -backend must be cpu, opencl or auto, got '%s'\n", backend.c_str());
     return 1;
   }

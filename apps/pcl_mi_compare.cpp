@@ -471,11 +471,7 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-restarts", mi_overrides.restarts);
   std::string backend = "cpu";
   pcl::console::parse_argument(argc, argv, "-backend", backend);
-  if (backend == "opencl")
-    mi_overrides.backend = pcl_mi::Backend::OpenCL;
-  else if (backend == "auto")
-    mi_overrides.backend = pcl_mi::Backend::Auto;
-  else if (backend != "cpu") {
+  if (!pcl_mi::parseBackend(backend, mi_overrides.backend)) {
     std::fprintf(stderr, "pcl_mi_compare: -backend must be cpu, opencl or auto, got '%s'\n",
                  backend.c_str());
     return 1;

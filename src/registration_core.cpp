@@ -18,9 +18,7 @@
 
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <stdexcept>
-#include <thread>
 #include <sstream>
 
 namespace pcl_mi {
@@ -35,6 +33,20 @@ featureName(Feature feature)
     return "PointCount";
   }
   return "unknown";
+}
+
+bool
+parseBackend(const std::string& name, Backend& backend)
+{
+  if (name == "cpu")
+    backend = Backend::Cpu;
+  else if (name == "opencl")
+    backend = Backend::OpenCL;
+  else if (name == "auto")
+    backend = Backend::Auto;
+  else
+    return false;
+  return true;
 }
 
 namespace {
@@ -175,26 +187,21 @@ struct RegistrationCore::Impl {
     std::string target_error, source_error;
     std::vector<SamplesPtr> pyramid;
     bool target_ok = true, source_ok = true;
-    if (new_target && new_source && parameters.num_threads > 1) {
-      std::exception_ptr failure;
-      std::thread worker([&] {
-        try {
+    if (new_target && new_source) {
+      // Independent inputs and outputs: prepareTarget() and prepareSource() share nothing
+      // but the parameters (see levelResolution()).
+      core::parallelFor(2, parameters.num_threads, [&](int task) {
+        if (task == 0)
           target_ok = prepareTarget(target_error);
-        }
-        catch (...) {
-          failure = std::current_exception();
-        }
+        else
+          source_ok = prepareSource(pyramid, source_error);
       });
-      source_ok = prepareSource(pyramid, source_error);
-      worker.join();
-      if (failure)
-        std::rethrow_exception(failure);
     }
-    else {
-      if (new_target)
-        target_ok = prepareTarget(target_error);
-      if (target_ok && new_source)
-        source_ok = prepareSource(pyramid, source_error);
+    else if (new_target) {
+      target_ok = prepareTarget(target_error);
+    }
+    else if (new_source) {
+      source_ok = prepareSource(pyramid, source_error);
     }
     if (!target_ok || !source_ok) {
       error = !target_ok ? target_error : source_error;
@@ -249,6 +256,14 @@ struct RegistrationCore::Impl {
     return backend::makeCpuBackend();
   }
 
+  /** Voxel size of pyramid level \a l (0 = finest). prepareSource() runs concurrently with
+   * prepareTarget(), which fills levels[], so both derive the sizes from here. */
+  double
+  levelResolution(int l) const
+  {
+    return parameters.resolution * std::ldexp(1.0, l);
+  }
+
   /** The target's local cloud, the (still empty) levels and the refinement's distributions. */
   bool
   prepareTarget(std::string& error)
@@ -268,7 +283,7 @@ struct RegistrationCore::Impl {
       return false;
     levels.resize(static_cast<std::size_t>(parameters.pyramid_levels));
     for (int l = 0; l < parameters.pyramid_levels; ++l)
-      levels[l].resolution = parameters.resolution * std::ldexp(1.0, l);
+      levels[l].resolution = levelResolution(l);
     if (parameters.refinement == Refinement::PointToDistribution)
       distributions = std::make_unique<core::TargetDistributions>(
           target.points,
@@ -296,8 +311,7 @@ struct RegistrationCore::Impl {
     std::vector<double> needed;
     if (parameters.source_subdivision > 0)
       for (int l = 0; l < num_levels; ++l)
-        needed.push_back(cells[l] = parameters.resolution * std::ldexp(1.0, l) /
-                                    parameters.source_subdivision);
+        needed.push_back(cells[l] = levelResolution(l) / parameters.source_subdivision);
 
     // When every cell size is the smallest one times a power of two (the usual case), one
     // sort of the points serves them all: the coarser samples merge the finer.
@@ -683,26 +697,18 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   core::NelderMeadResult forward, mirrored;
   const int mirrored_cap = p.symmetric_start ? budget / 2 : 0;
   const int forward_cap = budget - mirrored_cap;
-  if (p.symmetric_start && p.num_threads > 1) {
-    backend::ScoringBackend& mirror_backend = d.mirrorBackend(level);
-    std::exception_ptr failure;
-    std::thread mirror([&] {
-      try {
-        mirrored = search(level, mirror_backend, origin, -steps, mirrored_cap);
-      }
-      catch (...) {
-        failure = std::current_exception();
-      }
+  if (p.symmetric_start) {
+    backend::ScoringBackend& first = *d.level(level).backend;
+    backend::ScoringBackend& second = d.mirrorBackend(level);
+    core::parallelFor(2, p.num_threads, [&](int k) {
+      if (k == 0)
+        forward = search(level, first, origin, steps, forward_cap);
+      else
+        mirrored = search(level, second, origin, -steps, mirrored_cap);
     });
-    forward = search(level, *d.level(level).backend, origin, steps, forward_cap);
-    mirror.join();
-    if (failure)
-      std::rethrow_exception(failure);
   }
   else {
     forward = search(level, *d.level(level).backend, origin, steps, forward_cap);
-    if (p.symmetric_start)
-      mirrored = search(level, *d.level(level).backend, origin, -steps, mirrored_cap);
   }
   account(forward);
   if (p.symmetric_start)

@@ -210,6 +210,21 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   EXPECT_EQ(reg.getParameters().max_iterations, 1000);
 }
 
+TEST(BadParameters, BackendNamesParseStrictly)
+{
+  pcl_mi::Backend backend = pcl_mi::Backend::Auto;
+  EXPECT_TRUE(pcl_mi::parseBackend("cpu", backend));
+  EXPECT_EQ(backend, pcl_mi::Backend::Cpu);
+  EXPECT_TRUE(pcl_mi::parseBackend("opencl", backend));
+  EXPECT_EQ(backend, pcl_mi::Backend::OpenCL);
+  EXPECT_TRUE(pcl_mi::parseBackend("auto", backend));
+  EXPECT_EQ(backend, pcl_mi::Backend::Auto);
+  for (const char* bad : {"", "CPU", "gpu", "opencl "}) {
+    EXPECT_FALSE(pcl_mi::parseBackend(bad, backend)) << bad;
+    EXPECT_EQ(backend, pcl_mi::Backend::Auto) << bad;
+  }
+}
+
 TEST_F(BadInput, BaseClassIterationCapZeroIsReported)
 {
   // setMaximumIterations() is the base class's and cannot refuse; align() reports it.

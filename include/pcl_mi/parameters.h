@@ -36,6 +36,11 @@ enum class Backend {
   Auto    ///< OpenCL when a device is available, else the CPU with a warning
 };
 
+/** \brief Parses a backend name as command lines spell it: "cpu", "opencl" or "auto".
+ * \return false (leaving \a backend unchanged) for any other name. */
+bool
+parseBackend(const std::string& name, Backend& backend);
+
 /** \brief Local refinement applied to the optimum of the MI search. */
 enum class Refinement {
   None,                ///< the MI optimum as found (the paper's method)
