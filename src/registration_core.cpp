@@ -18,6 +18,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 #include <sstream>
 
@@ -158,6 +159,8 @@ struct RegistrationCore::Impl {
   /** The refinement's target distributions and source samples (when it is on). */
   std::unique_ptr<core::TargetDistributions> distributions;
   std::shared_ptr<const core::SourceSamples> refinement_samples;
+  /** The source's samples per level (see buildSourceSamples()). */
+  std::vector<std::shared_ptr<const core::SourceSamples>> source_levels;
   JointHistogram scratch;
 
   /** First pyramid level the MI search runs on. A refinement takes the place of the
@@ -169,9 +172,11 @@ struct RegistrationCore::Impl {
     return parameters.refinement != Refinement::None && parameters.pyramid_levels > 1 ? 1 : 0;
   }
 
-  /** Brings the local clouds, the source samples and the refinement's target up to date;
-   * the levels' grids and backends are built on first use (see level()). With two or more
-   * threads the target and the source are prepared concurrently. */
+  /** Brings the local clouds, the source samples, the levels' grids and the refinement's
+   * target up to date; the levels' backends are made on first use (see level()). The work
+   * runs as independent tasks (target and source local clouds, then the source samples,
+   * the refinement's distributions and each level's grid) spread over the threads: each
+   * task writes only its own outputs, so the result does not depend on the thread count. */
   bool
   prepare(std::string& error)
   {
@@ -183,34 +188,71 @@ struct RegistrationCore::Impl {
       error = "no source cloud was given";
       return false;
     }
-    const bool new_target = target_dirty, new_source = source_dirty || target_dirty;
-    std::string target_error, source_error;
-    std::vector<SamplesPtr> pyramid;
-    bool target_ok = true, source_ok = true;
-    if (new_target && new_source) {
-      // Independent inputs and outputs: prepareTarget() and prepareSource() share nothing
-      // but the parameters (see levelResolution()).
-      core::parallelFor(2, parameters.num_threads, [&](int task) {
-        if (task == 0)
-          target_ok = prepareTarget(target_error);
-        else
-          source_ok = prepareSource(pyramid, source_error);
-      });
-    }
-    else if (new_target) {
-      target_ok = prepareTarget(target_error);
-    }
-    else if (new_source) {
-      source_ok = prepareSource(pyramid, source_error);
-    }
-    if (!target_ok || !source_ok) {
-      error = !target_ok ? target_error : source_error;
+    const bool new_target = target_dirty;
+    // The source has samples for every level (the level count may have changed).
+    const bool new_source =
+        source_dirty || source_levels.size() != static_cast<std::size_t>(parameters.pyramid_levels);
+    if (!new_target && !new_source)
+      return true;
+    if (new_target && !resolveBackend(error))
+      return false;
+
+    // The local clouds first: everything else is built from them.
+    const double gap = core::kOutlierGapVoxels * parameters.resolution;
+    core::parallelFor(2, parameters.num_threads, [&](int task) {
+      if (task == 0 && new_target)
+        target = core::makeLocalCloud(target_input, gap);
+      if (task == 1 && new_source)
+        source = core::makeLocalCloud(source_input, gap);
+    });
+    if (target.points.size() < kMinimumPoints) {
+      error = describeTooFew("target", target);
       return false;
     }
+    if (source.points.size() < kMinimumPoints) {
+      error = describeTooFew("source", source);
+      return false;
+    }
+    if (new_target) {
+      // Refuse a too-fine resolution up front: no coarser level needs more voxels.
+      core::GridGeometry finest;
+      if (!core::makeGridGeometry(target.points, parameters.resolution, finest, error))
+        return false;
+      levels.clear();
+      levels.resize(static_cast<std::size_t>(parameters.pyramid_levels));
+      for (int l = 0; l < parameters.pyramid_levels; ++l)
+        levels[l].resolution = levelResolution(l);
+      distributions.reset();
+    }
+
+    // Longest first: a free thread takes the next task.
+    std::vector<std::function<void()>> tasks;
+    if (new_source)
+      tasks.emplace_back([this] { buildSourceSamples(); });
+    if (new_target && parameters.refinement == Refinement::PointToDistribution)
+      tasks.emplace_back([this] {
+        distributions = std::make_unique<core::TargetDistributions>(
+            target.points,
+            parameters.refinement_resolution,
+            kRefinementMinimumPoints,
+            kRefinementNoiseFraction * parameters.resolution);
+      });
+    if (new_target)
+      for (int l = 0; l < parameters.pyramid_levels; ++l)
+        tasks.emplace_back([this, l] { buildGrid(l); });
+    core::parallelFor(static_cast<int>(tasks.size()), parameters.num_threads,
+                      [&](int task) { tasks[static_cast<std::size_t>(task)](); });
+
     target_dirty = false;
-    if (new_source) {
-      attachSamples(pyramid);
-      source_dirty = false;
+    source_dirty = false;
+    // New levels need the samples; new samples need handing to the existing backends.
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+      Level& level = levels[l];
+      level.samples = source_levels[l];
+      if (level.backend)
+        level.backend->setSource(level.samples);
+      if (level.mirror_backend)
+        level.mirror_backend->setSource(level.samples);
     }
     return true;
   }
@@ -256,57 +298,34 @@ struct RegistrationCore::Impl {
     return backend::makeCpuBackend();
   }
 
-  /** Voxel size of pyramid level \a l (0 = finest). prepareSource() runs concurrently with
-   * prepareTarget(), which fills levels[], so both derive the sizes from here. */
+  /** Voxel size of pyramid level \a l (0 = finest). The source's samples and the target's
+   * levels are built concurrently, so both derive the sizes from here. */
   double
   levelResolution(int l) const
   {
     return parameters.resolution * std::ldexp(1.0, l);
   }
 
-  /** The target's local cloud, the (still empty) levels and the refinement's distributions. */
-  bool
-  prepareTarget(std::string& error)
+  /** The target grid of level \a l. Throws std::runtime_error if it cannot be built, which
+   * prepare() has ruled out. */
+  void
+  buildGrid(int l)
   {
-    levels.clear();
-    if (!resolveBackend(error))
-      return false;
-    distributions.reset();
-    target = core::makeLocalCloud(target_input, core::kOutlierGapVoxels * parameters.resolution);
-    if (target.points.size() < kMinimumPoints) {
-      error = describeTooFew("target", target);
-      return false;
-    }
-    // Refuse a too-fine resolution up front, whichever levels this alignment builds.
-    core::GridGeometry finest;
-    if (!core::makeGridGeometry(target.points, parameters.resolution, finest, error))
-      return false;
-    levels.resize(static_cast<std::size_t>(parameters.pyramid_levels));
-    for (int l = 0; l < parameters.pyramid_levels; ++l)
-      levels[l].resolution = levelResolution(l);
-    if (parameters.refinement == Refinement::PointToDistribution)
-      distributions = std::make_unique<core::TargetDistributions>(
-          target.points,
-          parameters.refinement_resolution,
-          kRefinementMinimumPoints,
-          kRefinementNoiseFraction * parameters.resolution);
-    return true;
+    Level& level = levels[static_cast<std::size_t>(l)];
+    level.grid = std::make_shared<core::TargetGrid>();
+    std::string error;
+    if (!core::buildTargetGrid(target.points, level.resolution, parameters.feature,
+                               levelBinning(level.resolution), *level.grid, error))
+      throw std::runtime_error(error);
   }
 
   using SamplesPtr = std::shared_ptr<const core::SourceSamples>;
 
-  /** The source's local cloud, its samples for every level and the refinement's samples
-   * (see attachSamples()). */
-  bool
-  prepareSource(std::vector<SamplesPtr>& per_level, std::string& error)
+  /** The source's samples for every level and the refinement's samples. */
+  void
+  buildSourceSamples()
   {
-    source = core::makeLocalCloud(source_input, core::kOutlierGapVoxels * parameters.resolution);
-    if (source.points.size() < kMinimumPoints) {
-      error = describeTooFew("source", source);
-      return false;
-    }
     const int num_levels = parameters.pyramid_levels;
-    const bool refine = parameters.refinement == Refinement::PointToDistribution;
     std::vector<double> cells(static_cast<std::size_t>(num_levels), 0.0); // 0: every point
     std::vector<double> needed;
     if (parameters.source_subdivision > 0)
@@ -344,40 +363,19 @@ struct RegistrationCore::Impl {
       return std::make_shared<const core::SourceSamples>(
           core::makeSourceSamples(source.points, cell));
     };
-    per_level.clear();
+    source_levels.clear();
     for (const double c : cells)
-      per_level.push_back(samplesFor(c));
+      source_levels.push_back(samplesFor(c));
     // The refinement moves the finest level's samples.
-    refinement_samples = refine ? per_level[0] : nullptr;
-    return true;
+    refinement_samples = source_levels[0];
   }
 
-  /** Hands the source samples to the levels and their backends. */
-  void
-  attachSamples(const std::vector<SamplesPtr>& per_level)
-  {
-    for (std::size_t l = 0; l < levels.size(); ++l) {
-      Level& level = levels[l];
-      level.samples = per_level[l];
-      if (level.backend)
-        level.backend->setSource(level.samples);
-      if (level.mirror_backend)
-        level.mirror_backend->setSource(level.samples);
-    }
-  }
-
-  /** Pyramid level \a l with its grid and backend built (after a successful prepare()).
-   * Throws std::runtime_error if the grid cannot be built, which prepare() has ruled out. */
+  /** Pyramid level \a l with its backend made (after a successful prepare()). */
   Level&
   level(int l)
   {
     Level& level = levels[static_cast<std::size_t>(l)];
     if (!level.backend) {
-      level.grid = std::make_shared<core::TargetGrid>();
-      std::string error;
-      if (!core::buildTargetGrid(target.points, level.resolution, parameters.feature,
-                                 levelBinning(level.resolution), *level.grid, error))
-        throw std::runtime_error(error);
       level.backend = makeBackend();
       level.backend->setTarget(level.grid);
       level.backend->setSource(level.samples);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <exception>
 #include <thread>
 #include <vector>
@@ -13,22 +14,25 @@ namespace pcl_mi {
 namespace core {
 
 /** \brief Runs task(0) .. task(tasks - 1) on up to \a threads threads (the caller's
- * included) and rethrows the first exception. Each task must write only its own results:
- * the split into tasks, not the number of threads, then fixes every floating-point sum,
+ * included), each thread taking the next task as it becomes free, and rethrows the first
+ * failure (by task order). Each task must write only its own results: the split into
+ * tasks, not the threads or the order they run in, then fixes every floating-point sum,
  * so results do not depend on the thread count. */
 template <typename Task>
 void
 parallelFor(int tasks, int threads, const Task& task)
 {
   threads = std::max(1, std::min(threads, tasks));
-  std::vector<std::exception_ptr> failures(static_cast<std::size_t>(threads));
-  auto run = [&](int worker) {
-    try {
-      for (int i = worker; i < tasks; i += threads)
+  std::vector<std::exception_ptr> failures(static_cast<std::size_t>(std::max(tasks, 0)));
+  std::atomic<int> next{0};
+  auto run = [&](int) {
+    for (int i = next++; i < tasks; i = next++) {
+      try {
         task(i);
-    }
-    catch (...) {
-      failures[static_cast<std::size_t>(worker)] = std::current_exception();
+      }
+      catch (...) {
+        failures[static_cast<std::size_t>(i)] = std::current_exception();
+      }
     }
   };
   std::vector<std::thread> pool;

@@ -48,35 +48,32 @@ bitsFor(std::uint64_t max_value)
   return bits;
 }
 
-/** Cell coordinates of \a positions (cubes of edge \a cell_size from \a min), packed into
- * keys ordered z, then y, then x with as few bits per axis as the extent needs, and
- * sorted. Coordinates are capped at 2^21 - 1 cells per axis. */
+/** Cell coordinates of \a count positions (cubes of edge \a cell_size from \a min; \a max
+ * bounds the positions), packed into keys ordered z, then y, then x with as few bits per
+ * axis as the extent needs, and sorted. Coordinates are capped at 2^21 - 1 cells per
+ * axis. The cells are cellCoordinates()'s, the same as TargetDistributions'. */
 template <typename PositionOf>
 std::vector<KeyedIndex>
 sortedCellKeys(std::size_t count,
                const PositionOf& position_of,
                const Eigen::Vector3f& min,
+               const Eigen::Vector3f& max,
                double cell_size)
 {
-  const double inv = 1.0 / cell_size;
-  constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-  auto cellOf = [&](std::size_t i) {
-    const Eigen::Vector3d c =
-        ((position_of(i) - min).template cast<double>() * inv).array().floor().max(0.0);
-    Eigen::Matrix<std::uint64_t, 3, 1> cell;
-    for (int a = 0; a < 3; ++a)
-      cell[a] = std::min<std::uint64_t>(static_cast<std::uint64_t>(c[a]), kMask);
-    return cell;
+  const float inv_cell = static_cast<float>(1.0 / cell_size);
+  constexpr float kCap = static_cast<float>((1 << 21) - 1);
+  auto cellOf = [&](const Eigen::Vector3f& p) {
+    const Eigen::Vector3f c = cellCoordinates(p, min, inv_cell).cwiseMax(0.0f).cwiseMin(kCap);
+    return Eigen::Matrix<std::uint64_t, 3, 1>(static_cast<std::uint64_t>(c.x()),
+                                              static_cast<std::uint64_t>(c.y()),
+                                              static_cast<std::uint64_t>(c.z()));
   };
-  // Two passes (extent, then keys) rather than storing every cell: memory stays at the
-  // keys alone, which matters for clouds of tens of millions of points.
-  Eigen::Matrix<std::uint64_t, 3, 1> max_cell = Eigen::Matrix<std::uint64_t, 3, 1>::Zero();
-  for (std::size_t i = 0; i < count; ++i)
-    max_cell = max_cell.cwiseMax(cellOf(i));
+  // Cells grow monotonically with the position: the box's far corner has the largest.
+  const Eigen::Matrix<std::uint64_t, 3, 1> max_cell = cellOf(max);
   const int bx = bitsFor(max_cell.x()), by = bitsFor(max_cell.y()), bz = bitsFor(max_cell.z());
   std::vector<KeyedIndex> keyed(count);
   for (std::size_t i = 0; i < count; ++i) {
-    const auto cell = cellOf(i);
+    const auto cell = cellOf(position_of(i));
     keyed[i] = {(cell.z() << (bx + by)) | (cell.y() << bx) | cell.x(),
                 static_cast<std::uint32_t>(i)};
   }
@@ -84,21 +81,67 @@ sortedCellKeys(std::size_t count,
   return keyed;
 }
 
-/** Appends the sample of \a n points whose offsets from \a anchor sum to \a sum and whose
- * outer products sum to \a sum_outer (relative to the anchor, for accuracy). */
+/** Bounding box of the \a count > 0 positions. */
+template <typename PositionOf>
 void
-appendSummary(SourceSamples& out,
-              const Eigen::Vector3d& anchor,
-              double n,
-              const Eigen::Vector3d& sum,
-              const Eigen::Matrix3d& sum_outer)
+boundingBox(std::size_t count,
+            const PositionOf& position_of,
+            Eigen::Vector3f& min,
+            Eigen::Vector3f& max)
 {
-  const Eigen::Vector3d mean = sum / n;
-  const Eigen::Matrix3d cov = sum_outer / n - mean * mean.transpose();
+  min = max = position_of(0);
+  for (std::size_t i = 1; i < count; ++i) {
+    min = min.cwiseMin(position_of(i));
+    max = max.cwiseMax(position_of(i));
+  }
+}
+
+/** Sums of the offsets d of points (or weighted samples) from an anchor and of their
+ * outer products d d^T, in double. Spelled out as scalars: Eigen's outer-product
+ * temporaries went through the stack and made the summaries twice as slow. */
+struct OffsetSums {
+  double n = 0.0;
+  double x = 0.0, y = 0.0, z = 0.0;
+  double xx = 0.0, xy = 0.0, xz = 0.0, yy = 0.0, yz = 0.0, zz = 0.0;
+
+  /** Adds \a weight points at offset (dx, dy, dz) whose own covariance is \a c (6 entries,
+   * or null for single points). */
+  void
+  add(double dx, double dy, double dz, double weight = 1.0, const float* c = nullptr)
+  {
+    n += weight;
+    x += weight * dx;
+    y += weight * dy;
+    z += weight * dz;
+    xx += weight * dx * dx;
+    xy += weight * dx * dy;
+    xz += weight * dx * dz;
+    yy += weight * dy * dy;
+    yz += weight * dy * dz;
+    zz += weight * dz * dz;
+    if (c) {
+      xx += weight * c[0];
+      xy += weight * c[1];
+      xz += weight * c[2];
+      yy += weight * c[3];
+      yz += weight * c[4];
+      zz += weight * c[5];
+    }
+  }
+};
+
+/** Appends the sample summarised by \a sums of offsets from \a anchor. */
+void
+appendSummary(SourceSamples& out, const Eigen::Vector3d& anchor, const OffsetSums& sums)
+{
+  const double n = sums.n;
+  const Eigen::Vector3d mean(sums.x / n, sums.y / n, sums.z / n);
   SourceSample s;
   s.position = (anchor + mean).cast<float>();
   s.count = static_cast<std::uint32_t>(n);
-  const double c[6] = {cov(0, 0), cov(0, 1), cov(0, 2), cov(1, 1), cov(1, 2), cov(2, 2)};
+  const double c[6] = {sums.xx / n - mean.x() * mean.x(), sums.xy / n - mean.x() * mean.y(),
+                       sums.xz / n - mean.x() * mean.z(), sums.yy / n - mean.y() * mean.y(),
+                       sums.yz / n - mean.y() * mean.z(), sums.zz / n - mean.z() * mean.z()};
   for (int i = 0; i < 6; ++i)
     s.covariance[i] = static_cast<float>(c[i]);
   out.has_covariance = out.has_covariance || s.count > 1;
@@ -123,27 +166,22 @@ makeSourceSamples(const PointList& points, double cell_size)
   }
 
   // Sort points by their cell (z slowest), then summarise runs of equal cells.
-  Eigen::Vector3f min = points.front();
-  for (const auto& p : points)
-    min = min.cwiseMin(p);
-  const std::vector<KeyedIndex> keyed = sortedCellKeys(
-      points.size(), [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; }, min,
-      cell_size);
-
+  auto point = [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; };
+  Eigen::Vector3f min, max;
+  boundingBox(points.size(), point, min, max);
+  const std::vector<KeyedIndex> keyed = sortedCellKeys(points.size(), point, min, max, cell_size);
   for (std::size_t begin = 0; begin < keyed.size();) {
     std::size_t end = begin + 1;
     while (end < keyed.size() && keyed[end].first == keyed[begin].first)
       ++end;
-    // Mean and covariance relative to the first point, in double, for accuracy.
+    // Relative to the cell's first point, for accuracy.
     const Eigen::Vector3d anchor = points[keyed[begin].second].cast<double>();
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d sum_outer = Eigen::Matrix3d::Zero();
+    OffsetSums sums;
     for (std::size_t k = begin; k < end; ++k) {
-      const Eigen::Vector3d d = points[keyed[k].second].cast<double>() - anchor;
-      sum += d;
-      sum_outer += d * d.transpose();
+      const Eigen::Vector3f& p = points[keyed[k].second];
+      sums.add(p.x() - anchor.x(), p.y() - anchor.y(), p.z() - anchor.z());
     }
-    appendSummary(out, anchor, static_cast<double>(end - begin), sum, sum_outer);
+    appendSummary(out, anchor, sums);
     begin = end;
   }
   return out;
@@ -156,9 +194,9 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
   pyramid.push_back(makeSourceSamples(points, cell_size));
   if (points.empty() || !(cell_size > 0.0))
     return pyramid;
-  Eigen::Vector3f min = points.front();
-  for (const auto& p : points)
-    min = min.cwiseMin(p);
+  Eigen::Vector3f min, max;
+  boundingBox(points.size(), [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; },
+              min, max);
   for (int k = 1; k <= coarser; ++k) {
     const SourceSamples& fine = pyramid.back();
     SourceSamples out;
@@ -168,28 +206,20 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
     const std::vector<KeyedIndex> keyed = sortedCellKeys(
         fine.samples.size(),
         [&](std::size_t i) -> const Eigen::Vector3f& { return fine.samples[i].position; }, min,
-        out.cell_size);
+        max, out.cell_size);
     for (std::size_t begin = 0; begin < keyed.size();) {
       std::size_t end = begin + 1;
       while (end < keyed.size() && keyed[end].first == keyed[begin].first)
         ++end;
-      // Merge by the parallel-axis rule, relative to the first centroid, in double.
+      // Merge by the parallel-axis rule, relative to the first centroid.
       const Eigen::Vector3d anchor = fine.samples[keyed[begin].second].position.cast<double>();
-      double n = 0.0;
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      Eigen::Matrix3d sum_outer = Eigen::Matrix3d::Zero();
+      OffsetSums sums;
       for (std::size_t k2 = begin; k2 < end; ++k2) {
         const SourceSample& f = fine.samples[keyed[k2].second];
-        const double m = f.count;
-        const Eigen::Vector3d d = f.position.cast<double>() - anchor;
-        const float* c = f.covariance;
-        Eigen::Matrix3d cov;
-        cov << c[0], c[1], c[2], c[1], c[3], c[4], c[2], c[4], c[5];
-        n += m;
-        sum += m * d;
-        sum_outer += m * (cov + d * d.transpose());
+        sums.add(f.position.x() - anchor.x(), f.position.y() - anchor.y(),
+                 f.position.z() - anchor.z(), f.count, f.covariance);
       }
-      appendSummary(out, anchor, n, sum, sum_outer);
+      appendSummary(out, anchor, sums);
       begin = end;
     }
     pyramid.push_back(std::move(out));

@@ -32,6 +32,15 @@ struct SourceSamples {
   std::size_t point_count = 0;   ///< points represented
 };
 
+/** \brief Continuous cell coordinates of \a p on the grid of cubes of edge 1 / \a inv_cell
+ * whose corner is \a min: the cube is their integer part. The one rule for every summary
+ * grid, so the source's samples and the refinement's target cubes agree. */
+inline Eigen::Vector3f
+cellCoordinates(const Eigen::Vector3f& p, const Eigen::Vector3f& min, float inv_cell)
+{
+  return (p - min) * inv_cell;
+}
+
 /** \brief Summarises \a points per cube of edge \a cell_size (0 keeps every point). Cells
  * are ordered by their position in space, which keeps the backends' memory access
  * coherent. */

@@ -12,20 +12,32 @@ namespace core {
 
 namespace {
 
-/** Inclusive [low, high] range of one axis holding the bulk of the values: walking out
- * from the median in cells of width \a gap, the range ends at the first empty cell. */
+/** Values of one axis sampled for its median: the median only anchors the walk in
+ * bulkRange(), any value inside the bulk does, and a strided sample finds it without a
+ * selection over every point. */
+constexpr std::size_t kMedianSamples = 4096;
+
+/** Inclusive [low, high] range of axis \a axis of \a points holding the bulk of the values:
+ * walking out from the median in cells of width \a gap, the range ends at the first empty
+ * cell. */
 void
-bulkRange(std::vector<float>& values, double gap, double& low, double& high)
+bulkRange(const PointList& points, int axis, double gap, double& low, double& high)
 {
-  auto mid = values.begin() + values.size() / 2;
-  std::nth_element(values.begin(), mid, values.end());
+  const std::size_t stride = std::max<std::size_t>(1, points.size() / kMedianSamples);
+  std::vector<float> sample;
+  sample.reserve(points.size() / stride + 1);
+  for (std::size_t i = 0; i < points.size(); i += stride)
+    sample.push_back(points[i][axis]);
+  auto mid = sample.begin() + sample.size() / 2;
+  std::nth_element(sample.begin(), mid, sample.end());
   const double median = *mid;
   // Cells beyond this many gaps are outliers however the walk goes; the bound also keeps
   // the cell bookkeeping small for absurd coordinates.
   constexpr long kMaxCells = 1 << 16;
   std::vector<bool> occupied(2 * kMaxCells + 1, false);
-  for (const float v : values) {
-    const double k = std::floor((v - median) / gap);
+  const double inv_gap = 1.0 / gap;
+  for (const auto& p : points) {
+    const double k = std::floor((p[axis] - median) * inv_gap);
     if (std::abs(k) <= kMaxCells)
       occupied[static_cast<std::size_t>(k + kMaxCells)] = true;
   }
@@ -56,12 +68,8 @@ makeLocalCloud(const PointList& points, double outlier_gap)
     return cloud;
 
   Eigen::Vector3d low, high;
-  std::vector<float> axis(finite.size());
-  for (int a = 0; a < 3; ++a) {
-    for (std::size_t i = 0; i < finite.size(); ++i)
-      axis[i] = finite[i][a];
-    bulkRange(axis, outlier_gap, low[a], high[a]);
-  }
+  for (int a = 0; a < 3; ++a)
+    bulkRange(finite, a, outlier_gap, low[a], high[a]);
 
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   std::size_t kept = 0;
