@@ -17,16 +17,23 @@ using namespace pcl_mi::core;
 namespace {
 
 PointList
-bundledScan()
+scanPoints(const std::string& sequence, int frame)
 {
   pcl::PointCloud<pcl::PointXYZI> cloud;
-  EXPECT_EQ(io::loadCloud(kitti::scanPath(std::string(PCL_MI_DATA_DIR) + "/kitti", "00", 0),
-                          cloud),
-            "");
+  EXPECT_EQ(
+      io::loadCloud(kitti::scanPath(std::string(PCL_MI_DATA_DIR) + "/kitti", sequence, frame),
+                    cloud),
+      "");
   PointList points;
   for (const auto& p : cloud)
     points.emplace_back(p.x, p.y, p.z);
-  return makeLocalCloud(points, 64.0).points;
+  return points;
+}
+
+PointList
+bundledScan()
+{
+  return makeLocalCloud(scanPoints("00", 0), 64.0).points;
 }
 
 } // namespace
@@ -85,6 +92,7 @@ TEST(Refinement, RecoversAKnownOffsetOfARealScan)
   EXPECT_GT(r.correspondences, source.samples.size() / 2);
   EXPECT_LT(r.translation.norm(), 0.02);
   EXPECT_LT(Eigen::AngleAxisd(r.rotation).angle() * 180.0 / M_PI, 0.1);
+  EXPECT_TRUE(r.converged);
 
   // The same with one thread: bit-identical.
   options.num_threads = 1;
@@ -92,6 +100,39 @@ TEST(Refinement, RecoversAKnownOffsetOfARealScan)
   EXPECT_EQ(serial.rotation, r.rotation);
   EXPECT_EQ(serial.translation, r.translation);
   EXPECT_EQ(serial.iterations, r.iterations);
+}
+
+TEST(Refinement, ExtrapolationConvergesSoonerToTheSamePose)
+{
+  // Two different scans, 9.1 m apart (sensor frames): plain Gauss-Newton steps land short
+  // and shrink slowly here, which the extrapolation of the step series cures.
+  const TargetDistributions target(scanPoints("02", 0), 0.7, 4, 0.05);
+  const SourceSamples source = makeSourceSamples(scanPoints("02", 6), 0.5);
+  Eigen::Matrix4d reference;
+  ASSERT_EQ(io::loadTransform(std::string(PCL_MI_DATA_DIR) +
+                                  "/kitti/reference_02_000006_to_000000.txt",
+                              reference),
+            "");
+  const Eigen::Matrix3d start_r =
+      Eigen::AngleAxisd(1.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+      reference.topLeftCorner<3, 3>();
+  const Eigen::Vector3d start_t =
+      reference.topRightCorner<3, 1>() + Eigen::Vector3d(0.3, -0.2, 0.05);
+  RefinementOptions options;
+  options.num_threads = 2;
+  options.max_iterations = 100;
+  const RefinementResult fast = refineToDistributions(target, source, start_r, start_t, options);
+  options.extrapolate = false;
+  const RefinementResult plain = refineToDistributions(target, source, start_r, start_t, options);
+  ASSERT_TRUE(fast.converged);
+  ASSERT_TRUE(plain.converged);
+  EXPECT_LT(fast.iterations * 3, plain.iterations * 2)
+      << fast.iterations << " vs " << plain.iterations;
+  EXPECT_LT((fast.translation - plain.translation).norm(), 0.005);
+  EXPECT_LT(Eigen::AngleAxisd(fast.rotation * plain.rotation.transpose()).angle() * 180.0 / M_PI,
+            0.02);
+  // Both near the reference.
+  EXPECT_LT((fast.translation - reference.topRightCorner<3, 1>()).norm(), 0.1);
 }
 
 TEST(Refinement, KeepsPinnedParameters)

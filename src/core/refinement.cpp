@@ -33,12 +33,36 @@ mix(std::uint64_t key)
   return key;
 }
 
+/** Lever arm (m) that makes a rotation step comparable with a translation step. */
+constexpr double kLeverArm = 10.0;
+/** Cosine above which two successive steps count as the same direction. */
+constexpr double kSameDirection = 0.9;
+/** Largest extrapolation factor (a ratio of 0.75 between successive steps). */
+constexpr double kMaxExtrapolation = 4.0;
+/** Steps shrinking more slowly than this are not converging geometrically. */
+constexpr double kMaxRatio = 0.95;
+
+/** Factor for \a step given the previous one: 1 / (1 - ratio) when both point the same
+ * way and shrink by that ratio, else 1. */
+double
+extrapolation(const Eigen::Matrix<double, 6, 1>& step, const Eigen::Matrix<double, 6, 1>& previous)
+{
+  Eigen::Matrix<double, 6, 1> a = step, b = previous;
+  a.head<3>() *= kLeverArm;
+  b.head<3>() *= kLeverArm;
+  const double na = a.norm(), nb = b.norm();
+  if (!(na > 0.0) || !(nb > 0.0) || a.dot(b) < kSameDirection * na * nb)
+    return 1.0;
+  const double ratio = na / nb;
+  return ratio < kMaxRatio ? std::min(kMaxExtrapolation, 1.0 / (1.0 - ratio)) : 1.0;
+}
+
 } // namespace
 
 std::uint64_t
 TargetDistributions::keyOf(const Eigen::Vector3f& p, bool& inside) const
 {
-  const Eigen::Vector3f c = (p - origin_) / static_cast<float>(cell_size_);
+  const Eigen::Vector3f c = cellCoordinates(p, origin_, inv_cell_);
   inside = (c.array() >= 0.0f).all() && (c.array() < static_cast<float>(kKeyLimit)).all();
   if (!inside)
     return 0;
@@ -52,7 +76,9 @@ TargetDistributions::TargetDistributions(const PointList& points,
                                          double cell_size,
                                          int min_points,
                                          double noise_sigma)
-: cell_size_(cell_size), origin_(Eigen::Vector3f::Zero())
+: cell_size_(cell_size),
+  inv_cell_(static_cast<float>(1.0 / cell_size)),
+  origin_(Eigen::Vector3f::Zero())
 {
   if (points.empty())
     return;
@@ -130,6 +156,7 @@ refineToDistributions(const TargetDistributions& target,
   };
   std::vector<Partial> partials(kChunks);
   const std::size_t n = source.samples.size();
+  Vector6d previous_step = Vector6d::Zero();
   for (int it = 0; it < options.max_iterations; ++it) {
     const Eigen::Matrix3f r = result.rotation.cast<float>();
     const Eigen::Vector3f t = result.translation.cast<float>();
@@ -182,9 +209,17 @@ refineToDistributions(const TargetDistributions& target,
     result.correspondences = matched;
     if (matched < 6)
       break;
-    const Vector6d xi = h.ldlt().solve(-g);
-    if (!xi.allFinite())
+    const Vector6d step = h.ldlt().solve(-g);
+    if (!step.allFinite())
       break;
+    // The steps shrink geometrically and keep their direction (each one lands short:
+    // moving the samples changes which cubes they fall into), so when two successive
+    // steps agree the rest of the series is taken at once, as Aitken's extrapolation
+    // does: step / (1 - ratio), at most kMaxExtrapolation times the step.
+    Vector6d xi = step;
+    if (it > 0 && options.extrapolate)
+      xi *= extrapolation(step, previous_step);
+    previous_step = step;
     const Eigen::Vector3d omega = xi.head<3>();
     const double angle = omega.norm();
     const Eigen::Matrix3d dr =
@@ -193,7 +228,8 @@ refineToDistributions(const TargetDistributions& target,
     result.rotation = dr * result.rotation;
     result.translation = dr * result.translation + xi.tail<3>();
     result.iterations = it + 1;
-    if (angle < options.rotation_epsilon && xi.tail<3>().norm() < options.translation_epsilon) {
+    if (step.head<3>().norm() < options.rotation_epsilon &&
+        step.tail<3>().norm() < options.translation_epsilon) {
       result.converged = true;
       break;
     }
