@@ -20,6 +20,7 @@
 #include <chrono>
 #include <tuple>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -190,7 +191,10 @@ main(int argc, char** argv)
     }
   }
 
-  pcl::MutualInformationRegistration<pcl::PointXYZI> reg;
+  // On the heap so that its internal copies of the clouds can go before the outputs are
+  // written (large inputs).
+  auto registration = std::make_unique<pcl::MutualInformationRegistration<pcl::PointXYZI>>();
+  auto& reg = *registration;
   double resolution = reg.getResolution();
   pcl::console::parse_argument(argc, argv, "-resolution", resolution);
   std::string feature = "varz";
@@ -306,7 +310,10 @@ main(int argc, char** argv)
     print_value("%.3f m, %.3f deg\n", e.translation, e.rotation_deg);
   }
 
+  const bool converged = reg.hasConverged();
+  registration.reset();
   pcl::PointCloud<pcl::PointXYZRGB> merged;
+  merged.reserve(target->size() + aligned.size());
   appendColoured(*target, 170, 170, 170, merged);
   appendColoured(aligned, 230, 40, 40, merged);
   if (pcl::io::savePCDFileBinary(aligned_path, aligned) < 0 ||
@@ -333,5 +340,5 @@ main(int argc, char** argv)
   print_info(" and ");
   print_value("%s", merged_path.c_str());
   print_info(" (view: pcl_viewer %s)\n", merged_path.c_str());
-  return reg.hasConverged() ? 0 : 3;
+  return converged ? 0 : 3;
 }
