@@ -25,3 +25,7 @@ printf '# source target reference(4x4)\n%s %s %s\n' \
 "$compare" -list "$work/list.txt" -methods mi-varz -csv "$work/list.csv"
 awk -F, 'NR > 1 { n++; if ($10 >= 0.15 || $11 >= 0.5) bad++ } END { if (n != 2 || bad) exit 1 }' "$work/list.csv"
 grep -q ",backward," "$work/list.csv"
+
+# gicp-coarse (PCL GICP on 0.25 m voxel-filtered clouds) from half a metre off: converges.
+"$compare" -list "$work/list.txt" -methods gicp-coarse -perturb 0.5,2 -csv "$work/coarse.csv"
+awk -F, 'NR > 1 { n++; if ($10 >= 0.5 || $11 >= 2) bad++ } END { if (n != 2 || bad) exit 1 }' "$work/coarse.csv"
