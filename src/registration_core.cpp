@@ -126,8 +126,9 @@ constexpr int kRefinementMinimumPoints = 4;
 /** Noise (standard deviation) added to the refinement's target covariances, as a fraction
  * of the MI resolution: 0.05 m at 1 m voxels, about the range noise of a spinning LiDAR. */
 constexpr double kRefinementNoiseFraction = 0.05;
-/** A refinement that moves the pose further than this (the MI resolution times this, and
- * degrees) left the MI basin and is discarded. */
+/** A refinement that moves the pose further than this (times the voxel size of the finest
+ * level the MI search ran on, and degrees) left the MI basin and is discarded. The MI
+ * optimum is quantised by that level's voxels, so it can be up to about one voxel off. */
 constexpr double kRefinementMaxShift = 1.0;
 constexpr double kRefinementMaxTurnDeg = 5.0;
 
@@ -787,7 +788,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
     endStage("refinement", refined.iterations);
     const double turn_deg =
         Eigen::AngleAxisd(refined.rotation * r.transpose()).angle() * 180.0 / M_PI;
-    if ((refined.translation - t).norm() <= kRefinementMaxShift * p.resolution &&
+    const double searched_resolution = d.levels[static_cast<std::size_t>(first_level)].resolution;
+    if ((refined.translation - t).norm() <= kRefinementMaxShift * searched_resolution &&
         turn_deg <= kRefinementMaxTurnDeg) {
       result.refinement_iterations = refined.iterations;
       result.transformation.topLeftCorner<3, 3>() = refined.rotation;
