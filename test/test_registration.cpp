@@ -102,6 +102,18 @@ TEST_P(BundledPair, FromPerturbedReference)
   }
 }
 
+TEST_P(BundledPair, FromNearlyCorrectGuess)
+{
+  // A good guess must survive the coarse grid's pull (the search from the guess on the 2 m
+  // level is what keeps it).
+  for (const auto& [x, y, yaw] : {std::make_tuple(0.3, -0.2, 2.0),
+                                  std::make_tuple(-0.1, 0.25, -1.0)}) {
+    SCOPED_TRACE(testing::Message() << "perturbation " << x << ", " << y << ", " << yaw);
+    const Eigen::Matrix4d guess = test_data::planarMotion(x, y, yaw) * reference_;
+    EXPECT_POSE_NEAR(align(guess), reference_);
+  }
+}
+
 const PairCase kPairs[] = {{"00", 0, 9}, {"02", 0, 6}};
 
 std::string
