@@ -16,6 +16,7 @@
 
 #include <Eigen/Geometry>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -680,6 +681,25 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
     return core::minimizeNelderMead(cost, x0, s, options);
   };
 
+  /** Two independent searches on one level, each (start, simplex, iteration cap) on its
+   * own backend and concurrent when threads allow: the same results either way. */
+  struct Start {
+    const Eigen::VectorXd& x0;
+    Eigen::VectorXd steps;
+    int cap;
+  };
+  auto searchBoth = [&](int level, const Start& a, const Start& b) {
+    std::array<core::NelderMeadResult, 2> results;
+    backend::ScoringBackend& first = *d.level(level).backend;
+    backend::ScoringBackend& second = d.mirrorBackend(level);
+    core::parallelFor(2, p.num_threads, [&](int k) {
+      const Start& start = k == 0 ? a : b;
+      results[static_cast<std::size_t>(k)] =
+          search(level, k == 0 ? first : second, start.x0, start.steps, start.cap);
+    });
+    return results;
+  };
+
   int budget = p.max_iterations;
   core::NelderMeadResult best;
   bool have_best = false;
@@ -705,14 +725,10 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   const int mirrored_cap = p.symmetric_start ? budget / 2 : 0;
   const int forward_cap = budget - mirrored_cap;
   if (p.symmetric_start) {
-    backend::ScoringBackend& first = *d.level(level).backend;
-    backend::ScoringBackend& second = d.mirrorBackend(level);
-    core::parallelFor(2, p.num_threads, [&](int k) {
-      if (k == 0)
-        forward = search(level, first, origin, steps, forward_cap);
-      else
-        mirrored = search(level, second, origin, -steps, mirrored_cap);
-    });
+    const auto both =
+        searchBoth(level, {origin, steps, forward_cap}, {origin, -steps, mirrored_cap});
+    forward = both[0];
+    mirrored = both[1];
   }
   else {
     forward = search(level, *d.level(level).backend, origin, steps, forward_cap);
@@ -749,24 +765,18 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
     --level;
     have_best = false;
     if (candidates.size() == 2) {
-      // Two independent searches with fixed budget shares, concurrent when threads allow:
-      // the same result either way.
-      core::NelderMeadResult from_best, from_guess;
       const int cap = std::max(budget / 2, 0);
-      backend::ScoringBackend& first = *d.level(level).backend;
-      backend::ScoringBackend& second = d.mirrorBackend(level);
-      core::parallelFor(2, p.num_threads, [&](int k) {
-        if (k == 0)
-          from_best = search(level, first, candidates[0], scale * steps, cap);
-        else
-          from_guess = search(level, second, candidates[1], scale * steps,
-                              std::min(cap, kGuessCandidateIterations));
-      });
+      const auto both =
+          searchBoth(level, {candidates[0], scale * steps, cap},
+                     {candidates[1], scale * steps, std::min(cap, kGuessCandidateIterations)});
+      const core::NelderMeadResult& from_best = both[0];
+      const core::NelderMeadResult& from_guess = both[1];
       account(from_best);
       account(from_guess);
       // A guess that wins before its capped search converged is finished from where it got.
       if (from_guess.value < from_best.value && !from_guess.converged && budget > 0)
-        account(search(level, first, from_guess.x, 0.5 * scale * steps, budget));
+        account(search(level, *d.level(level).backend, from_guess.x, 0.5 * scale * steps,
+                       budget));
     }
     else {
       account(search(level, *d.level(level).backend, candidates[0], scale * steps, budget));
