@@ -82,12 +82,10 @@ TargetDistributions::TargetDistributions(const PointList& points,
 {
   if (points.empty())
     return;
-  origin_ = points.front();
-  for (const auto& p : points)
-    origin_ = origin_.cwiseMin(p);
-  // Cells are the same as makeSourceSamples' (origin at the minimum), so its per-cell
-  // centroid and covariance are exactly the statistics needed here.
+  // The cubes are makeSourceSamples' cells: its per-cell centroid and covariance are exactly
+  // the statistics needed here, and its grid origin is where keyOf() must start.
   const SourceSamples cells = makeSourceSamples(points, cell_size);
+  origin_ = cells.grid_origin;
   const float noise = static_cast<float>(noise_sigma * noise_sigma);
   for (const SourceSample& s : cells.samples) {
     if (s.count < static_cast<std::uint32_t>(std::max(min_points, 1)))

@@ -169,6 +169,7 @@ makeSourceSamples(const PointList& points, double cell_size)
   auto point = [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; };
   Eigen::Vector3f min, max;
   boundingBox(points.size(), point, min, max);
+  out.grid_origin = min;
   const std::vector<KeyedIndex> keyed = sortedCellKeys(points.size(), point, min, max, cell_size);
   for (std::size_t begin = 0; begin < keyed.size();) {
     std::size_t end = begin + 1;
@@ -202,6 +203,7 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
     SourceSamples out;
     out.cell_size = fine.cell_size * 2.0;
     out.point_count = fine.point_count;
+    out.grid_origin = min; // the same corner at every level: coarse cells nest fine ones
     // The same cells as makeSourceSamples at the coarser size, for the finer centroids.
     const std::vector<KeyedIndex> keyed = sortedCellKeys(
         fine.samples.size(),

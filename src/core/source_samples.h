@@ -28,6 +28,9 @@ struct SourceSample {
 struct SourceSamples {
   std::vector<SourceSample> samples;
   double cell_size = 0.0;        ///< 0: one sample per point
+  /** Corner of cell (0, 0, 0): the cells are cellCoordinates(p, grid_origin,
+   * 1 / cell_size)'s integer parts (the points' minimum; zero when cell_size is 0). */
+  Eigen::Vector3f grid_origin = Eigen::Vector3f::Zero();
   bool has_covariance = false;   ///< false when every covariance is zero
   std::size_t point_count = 0;   ///< points represented
 };
