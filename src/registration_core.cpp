@@ -209,12 +209,14 @@ struct RegistrationCore::Impl {
 
     // The local clouds first: everything else is built from them.
     const double gap = core::kOutlierGapVoxels * parameters.resolution;
-    core::parallelFor(2, parameters.num_threads, [&](int task) {
-      if (task == 0 && new_target)
-        target = core::makeLocalCloud(target_input, gap);
-      if (task == 1 && new_source)
-        source = core::makeLocalCloud(source_input, gap);
-    });
+    // Only the changed clouds are tasks, so a new source alone starts no thread.
+    std::vector<std::function<void()>> local_tasks;
+    if (new_target)
+      local_tasks.emplace_back([&] { target = core::makeLocalCloud(target_input, gap); });
+    if (new_source)
+      local_tasks.emplace_back([&] { source = core::makeLocalCloud(source_input, gap); });
+    core::parallelFor(static_cast<int>(local_tasks.size()), parameters.num_threads,
+                      [&](int task) { local_tasks[static_cast<std::size_t>(task)](); });
     if (target.points.size() < kMinimumPoints) {
       error = describeTooFew("target", target);
       return false;
