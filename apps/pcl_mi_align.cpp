@@ -79,22 +79,6 @@ transformFromGuess(const std::vector<double>& g)
   return t.matrix();
 }
 
-void
-appendColoured(const pcl::PointCloud<pcl::PointXYZI>& in,
-               std::uint8_t r,
-               std::uint8_t g,
-               std::uint8_t b,
-               pcl::PointCloud<pcl::PointXYZRGB>& out)
-{
-  for (const auto& p : in) {
-    pcl::PointXYZRGB q(r, g, b);
-    q.x = p.x;
-    q.y = p.y;
-    q.z = p.z;
-    out.push_back(q);
-  }
-}
-
 /** Shows (or, with \a screenshot, saves) target + source under the guess on the left and
  * target + aligned source on the right, seen from above. */
 bool
@@ -311,20 +295,24 @@ main(int argc, char** argv)
   }
 
   const bool converged = reg.hasConverged();
-  registration.reset();
-  pcl::PointCloud<pcl::PointXYZRGB> merged;
-  merged.reserve(target->size() + aligned.size());
-  appendColoured(*target, 170, 170, 170, merged);
-  appendColoured(aligned, 230, 40, 40, merged);
-  if (pcl::io::savePCDFileBinary(aligned_path, aligned) < 0 ||
-      pcl::io::savePCDFileBinary(merged_path, merged) < 0) {
-    print_error("pcl_mi_align: cannot write '%s' or '%s'\n", aligned_path.c_str(),
-                merged_path.c_str());
-    return 1;
-  }
   std::string screenshot;
   pcl::console::parse_argument(argc, argv, "-screenshot", screenshot);
-  if (pcl::console::find_switch(argc, argv, "-view") || !screenshot.empty()) {
+  const bool show = pcl::console::find_switch(argc, argv, "-view") || !screenshot.empty();
+  // Large inputs: the registration's copies and (unless shown) the source are not needed
+  // for writing, and the merged file is streamed rather than built in memory.
+  registration.reset();
+  if (!show)
+    source.reset();
+  if (pcl::io::savePCDFileBinary(aligned_path, aligned) < 0) {
+    print_error("pcl_mi_align: cannot write '%s'\n", aligned_path.c_str());
+    return 1;
+  }
+  const std::string write_error = pcl_mi::io::saveMergedPcd(merged_path, *target, aligned);
+  if (!write_error.empty()) {
+    print_error("pcl_mi_align: %s\n", write_error.c_str());
+    return 1;
+  }
+  if (show) {
     auto before = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>();
     pcl::transformPointCloud(*source, *before, guess.cast<float>());
     auto after = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>(aligned);

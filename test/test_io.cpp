@@ -6,6 +6,8 @@
 #include <pcl_mi/io.h>
 #include <pcl_mi/kitti.h>
 
+#include <pcl/io/pcd_io.h>
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -146,4 +148,38 @@ TEST(CloudIo, ConvertsCoordinatesOfAnyNumericType)
   EXPECT_FLOAT_EQ(cloud[1].x, 3.125f);
   EXPECT_FLOAT_EQ(cloud[1].z, -9.0f);
   std::remove(path.c_str());
+}
+
+TEST(CloudIo, MergedPcdReadsBackAsTheTwoCloudsColoured)
+{
+  // More than one write chunk (65536 points), so chunk boundaries are covered.
+  pcl::PointCloud<pcl::PointXYZI> target, aligned;
+  for (int i = 0; i < 70000; ++i) {
+    pcl::PointXYZI p;
+    p.x = 0.25f * static_cast<float>(i);
+    p.y = -static_cast<float>(i % 97);
+    p.z = 1e-3f * static_cast<float>(i % 13);
+    p.intensity = 0.5f;
+    (i % 3 == 0 ? aligned : target).push_back(p);
+  }
+  const std::string path = testing::TempDir() + "pcl_mi_merged.pcd";
+  ASSERT_EQ(pcl_mi::io::saveMergedPcd(path, target, aligned), "");
+
+  pcl::PointCloud<pcl::PointXYZRGB> read;
+  ASSERT_EQ(pcl::io::loadPCDFile(path, read), 0);
+  ASSERT_EQ(read.size(), target.size() + aligned.size());
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    const bool is_target = i < target.size();
+    const pcl::PointXYZI& in = is_target ? target[i] : aligned[i - target.size()];
+    ASSERT_EQ(read[i].x, in.x) << i;
+    ASSERT_EQ(read[i].y, in.y) << i;
+    ASSERT_EQ(read[i].z, in.z) << i;
+    ASSERT_EQ(read[i].r, is_target ? 170 : 230) << i;
+    ASSERT_EQ(read[i].g, is_target ? 170 : 40) << i;
+    ASSERT_EQ(read[i].b, is_target ? 170 : 40) << i;
+  }
+  std::remove(path.c_str());
+
+  EXPECT_NE(pcl_mi::io::saveMergedPcd(testing::TempDir(), target, aligned), "")
+      << "a directory is not a writable file";
 }

@@ -38,5 +38,14 @@ struct PoseError {
 PoseError
 poseError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& reference);
 
+/** \brief Writes \a target (grey) followed by \a aligned (red) as one binary XYZRGB .pcd
+ * for pcl_viewer, in chunks: unlike building a merged pcl::PointCloud and saving it, this
+ * holds no copy of the two clouds, which matters at millions of points. Returns an empty
+ * string on success, else a one-line reason. */
+std::string
+saveMergedPcd(const std::string& path,
+              const pcl::PointCloud<pcl::PointXYZI>& target,
+              const pcl::PointCloud<pcl::PointXYZI>& aligned);
+
 } // namespace io
 } // namespace pcl_mi

@@ -518,5 +518,45 @@ poseError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& reference)
   return e;
 }
 
+std::string
+saveMergedPcd(const std::string& path,
+              const pcl::PointCloud<pcl::PointXYZI>& target,
+              const pcl::PointCloud<pcl::PointXYZI>& aligned)
+{
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out)
+    return "cannot open '" + path + "' for writing";
+  const std::size_t total = target.size() + aligned.size();
+  // The header PCL writes for PointXYZRGB, so PCL and pcl_viewer read it as their own.
+  out << "# .PCD v0.7 - Point Cloud Data file format\n"
+      << "VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
+      << "WIDTH " << total << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << total
+      << "\nDATA binary\n";
+  constexpr std::size_t kChunkPoints = 1 << 16;
+  struct Record {
+    float x, y, z;
+    std::uint32_t rgba;
+  };
+  static_assert(sizeof(Record) == 16, "PCD records are 16 packed bytes");
+  std::vector<Record> chunk;
+  chunk.reserve(kChunkPoints);
+  auto write = [&](const pcl::PointCloud<pcl::PointXYZI>& cloud, std::uint32_t rgba) {
+    for (std::size_t begin = 0; begin < cloud.size() && out; begin += kChunkPoints) {
+      const std::size_t end = std::min(cloud.size(), begin + kChunkPoints);
+      chunk.clear();
+      for (std::size_t i = begin; i < end; ++i)
+        chunk.push_back({cloud[i].x, cloud[i].y, cloud[i].z, rgba});
+      out.write(reinterpret_cast<const char*>(chunk.data()),
+                static_cast<std::streamsize>(chunk.size() * sizeof(Record)));
+    }
+  };
+  write(target, 0xFFAAAAAAu);  // grey (170, 170, 170), opaque
+  write(aligned, 0xFFE62828u); // red (230, 40, 40), opaque
+  out.close();
+  if (!out)
+    return "cannot write '" + path + "' (disk full?)";
+  return {};
+}
+
 } // namespace io
 } // namespace pcl_mi
