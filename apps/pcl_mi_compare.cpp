@@ -96,6 +96,13 @@ readPairList(const std::string& path, std::vector<Pair>& rows, std::string& erro
   return true;
 }
 
+std::string
+baseName(const std::string& path)
+{
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
 /** One CSV row: a (pair, method) result. */
 struct Row {
   std::string sequence, direction, method;
@@ -703,8 +710,13 @@ main(int argc, char** argv)
     const auto& tgt = clouds[p.target_path];
     const auto truth = pcl_mi::io::poseError(Eigen::Matrix4d::Identity(), p.reference);
     const auto initial = pcl_mi::io::poseError(p.guess, p.reference);
-    std::printf("[%3zu/%zu] %s %d->%d %5.2f m:", k + 1, pairs.size(), p.sequence.c_str(),
-                p.source_frame, p.target_frame, truth.translation);
+    if (p.sequence == "list") // the row number alone does not say which scans
+      std::printf("[%3zu/%zu] %s->%s %5.2f m:", k + 1, pairs.size(),
+                  baseName(p.source_path).c_str(), baseName(p.target_path).c_str(),
+                  truth.translation);
+    else
+      std::printf("[%3zu/%zu] %s %d->%d %5.2f m:", k + 1, pairs.size(), p.sequence.c_str(),
+                  p.source_frame, p.target_frame, truth.translation);
     for (const auto& m : methods) {
       Row row = runMethod(m, src, tgt, p);
       if (repeat > 1) { // report the median time; the results are identical every run
