@@ -1,0 +1,100 @@
+#!/usr/bin/env python3
+"""Emulates a sparser LiDAR from KITTI's 64-beam scans by keeping every K-th ring, and writes
+the scans plus a pair list for `pcl_mi_compare -list`.
+
+KITTI's HDL-64E .bin files store the points ring by ring, each ring one sweep in azimuth, so
+a ring ends where the azimuth wraps from negative to non-negative. K = 2 gives a 32-ring
+scan, K = 4 a 16-ring one (about 1.7 deg between rings, close to a VLP-16's 2 deg).
+
+usage: kitti_ring_subset.py KITTI_ROOT K OUT_DIR [--sequences 00,01,02,05,08]
+                            [--distance 1,10] [--max-yaw 20] [--poses semantic|gt]
+
+The list holds every pair i < j of the stored frames whose motion is within --distance and
+--max-yaw, with the reference source-to-target transform T_i_j = inv(Tv_i) * Tv_j,
+Tv_k = inv(Tr) * P_k * Tr (the same pairs pcl_mi_compare -kitti picks). Then e.g.
+    build/apps/pcl_mi_compare -list OUT_DIR/list.txt -methods mi-varz,mi-n
+"""
+import argparse
+import math
+import os
+import sys
+
+import numpy as np
+
+
+def read_tr(path):
+    for line in open(path):
+        if line.startswith("Tr:"):
+            tr = np.eye(4)
+            tr[:3, :] = np.array([float(v) for v in line.split()[1:13]]).reshape(3, 4)
+            return tr
+    sys.exit(f"kitti_ring_subset: no Tr: line in {path}")
+
+
+def read_poses(path):
+    poses = []
+    for line in open(path):
+        if line.strip():
+            p = np.eye(4)
+            p[:3, :] = np.array([float(v) for v in line.split()[:12]]).reshape(3, 4)
+            poses.append(p)
+    return poses
+
+
+def keep_rings(points, every):
+    azimuth = np.arctan2(points[:, 1], points[:, 0])
+    starts = np.zeros(len(points), dtype=np.int64)
+    starts[1:] = (azimuth[:-1] < 0) & (azimuth[1:] >= 0)
+    ring = np.cumsum(starts)
+    return points[ring % every == 0]
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("root")
+    parser.add_argument("every", type=int)
+    parser.add_argument("out")
+    parser.add_argument("--sequences", default="00,01,02,05,08")
+    parser.add_argument("--distance", default="1,10")
+    parser.add_argument("--max-yaw", type=float, default=20.0)
+    parser.add_argument("--poses", choices=["semantic", "gt"], default="semantic")
+    args = parser.parse_args()
+    if args.every < 1:
+        sys.exit("kitti_ring_subset: K must be >= 1")
+    dmin, dmax = (float(v) for v in args.distance.split(","))
+    os.makedirs(args.out, exist_ok=True)
+
+    rows = []
+    for seq in args.sequences.split(","):
+        seq_dir = os.path.join(args.root, "sequences", seq)
+        velodyne = os.path.join(seq_dir, "velodyne")
+        if not os.path.isdir(velodyne):
+            sys.exit(f"kitti_ring_subset: no {velodyne}")
+        frames = sorted(int(f[:-4]) for f in os.listdir(velodyne) if f.endswith(".bin"))
+        tr = read_tr(os.path.join(seq_dir, "calib.txt"))
+        pose_file = (os.path.join(seq_dir, "poses.txt") if args.poses == "semantic"
+                     else os.path.join(args.root, "poses", seq + ".txt"))
+        poses = read_poses(pose_file)
+        velo = {k: np.linalg.inv(tr) @ poses[k] @ tr for k in frames}
+        kept = 0
+        for k in frames:
+            scan = np.fromfile(os.path.join(velodyne, f"{k:06d}.bin"), dtype=np.float32)
+            subset = keep_rings(scan.reshape(-1, 4), args.every)
+            subset.tofile(os.path.join(args.out, f"{seq}_{k:06d}.bin"))
+            kept += len(subset)
+        for a, i in enumerate(frames):
+            for j in frames[a + 1:]:
+                t = np.linalg.inv(velo[i]) @ velo[j]
+                yaw = math.degrees(math.atan2(t[1, 0], t[0, 0]))
+                if dmin <= np.linalg.norm(t[:3, 3]) <= dmax and abs(yaw) <= args.max_yaw:
+                    numbers = " ".join(f"{v:.9g}" for v in t[:3, :].reshape(-1))
+                    rows.append(f"{seq}_{j:06d}.bin {seq}_{i:06d}.bin {numbers}")
+        print(f"sequence {seq}: {len(frames)} scans, {kept // max(1, len(frames))} points "
+              f"per scan kept (every {args.every}. ring)")
+    with open(os.path.join(args.out, "list.txt"), "w") as out:
+        out.write("\n".join(rows) + "\n")
+    print(f"{len(rows)} pairs in {os.path.join(args.out, 'list.txt')}")
+
+
+if __name__ == "__main__":
+    main()
