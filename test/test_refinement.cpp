@@ -161,3 +161,28 @@ TEST(Refinement, EmptyTargetLeavesThePoseAlone)
   EXPECT_EQ(r.translation, t);
   EXPECT_EQ(r.iterations, 0);
 }
+
+TEST(TargetDistributions, HoldAcrossSurfacesAndLetSamplesSlideAlongThem)
+{
+  // Two scan lines crossing a tilted plane inside one 0.7 m cube: the raw covariance is
+  // narrow across the lines within the plane, which would pull samples onto the lines.
+  const Eigen::Vector3f normal = Eigen::Vector3f(0.1f, -0.2f, 1.0f).normalized();
+  const Eigen::Vector3f u = normal.unitOrthogonal(), v = normal.cross(u);
+  const Eigen::Vector3f centre(0.35f, 0.35f, 0.35f);
+  PointList points;
+  for (int line = 0; line < 2; ++line)
+    for (int i = 0; i < 40; ++i)
+      points.push_back(centre + (0.008f * static_cast<float>(i) - 0.16f) * u +
+                       (line ? 0.05f : -0.05f) * v);
+  const double cube = 0.7, noise = 0.05;
+  const TargetDistributions target(points, cube, 4, noise);
+  ASSERT_EQ(target.size(), 1u);
+  const Eigen::Matrix3f& info = target[0].information;
+  // Across the surface: held as tightly as the noise allows.
+  EXPECT_NEAR(normal.dot(info * normal), 1.0 / (noise * noise), 0.05 / (noise * noise));
+  // Along it, in both directions (also across the two lines): no tighter than a variance of
+  // (cube / 2)^2 plus the noise.
+  const double loosest = 1.0 / (0.25 * cube * cube + noise * noise);
+  EXPECT_NEAR(u.dot(info * u), loosest, 0.01 * loosest);
+  EXPECT_NEAR(v.dot(info * v), loosest, 0.01 * loosest);
+}

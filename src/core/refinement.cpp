@@ -7,6 +7,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
 #include <algorithm>
@@ -57,6 +58,21 @@ extrapolation(const Eigen::Matrix<double, 6, 1>& step, const Eigen::Matrix<doubl
   return ratio < kMaxRatio ? std::min(kMaxExtrapolation, 1.0 / (1.0 - ratio)) : 1.0;
 }
 
+/** \a c with its two larger eigenvalues raised to at least \a floor (the smallest, across
+ * the surface, is kept). Closed-form eigen-decomposition in double: cheap enough for every
+ * cube, and exact enough for the near-degenerate covariances of planes and lines. */
+Eigen::Matrix3f
+flattenedCovariance(const Eigen::Matrix3f& c, double floor)
+{
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(c.cast<double>());
+  Eigen::Vector3d values = solver.eigenvalues(); // ascending
+  values[1] = std::max(values[1], floor);
+  values[2] = std::max(values[2], floor);
+  const Eigen::Matrix3d& vectors = solver.eigenvectors();
+  return (vectors * values.asDiagonal() * vectors.transpose()).cast<float>();
+}
+
 } // namespace
 
 std::uint64_t
@@ -87,6 +103,7 @@ TargetDistributions::TargetDistributions(const PointList& points,
   const SourceSamples cells = makeSourceSamples(points, cell_size);
   origin_ = cells.grid_origin;
   const float noise = static_cast<float>(noise_sigma * noise_sigma);
+  const double in_surface_floor = 0.25 * cell_size * cell_size;
   for (const SourceSample& s : cells.samples) {
     if (s.count < static_cast<std::uint32_t>(std::max(min_points, 1)))
       continue;
@@ -94,6 +111,7 @@ TargetDistributions::TargetDistributions(const PointList& points,
     c << s.covariance[0], s.covariance[1], s.covariance[2], //
         s.covariance[1], s.covariance[3], s.covariance[4],  //
         s.covariance[2], s.covariance[4], s.covariance[5];
+    c = flattenedCovariance(c, in_surface_floor);
     c.diagonal().array() += noise;
     distributions_.push_back({s.position, c.inverse()});
   }
