@@ -8,8 +8,14 @@
 #include <pcl_mi/io.h>
 #include <pcl_mi/kitti.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
 
 using namespace pcl_mi;
 using namespace pcl_mi::core;
@@ -185,4 +191,61 @@ TEST(TargetDistributions, HoldAcrossSurfacesAndLetSamplesSlideAlongThem)
   const double loosest = 1.0 / (0.25 * cube * cube + noise * noise);
   EXPECT_NEAR(u.dot(info * u), loosest, 0.01 * loosest);
   EXPECT_NEAR(v.dot(info * v), loosest, 0.01 * loosest);
+}
+
+TEST(TargetDistributions, TakeTheSurfaceOfStripsFromTheirNeighbourhood)
+{
+  // Flat ground seen by four laser rings 2 deg apart (a 16-beam sensor 1.7 m above it): each
+  // 0.7 m cube holds a piece of one ring, spread along it and, by the range noise, along the
+  // beam. A plane fitted to that strip is the laser's cone, tilted by the beam's elevation
+  // (13-19 deg) from the ground, and it moves with the sensor; the cube's 3x3x3 neighbourhood
+  // spans two or three rings and gives the ground itself.
+  const double height = 1.7;
+  std::mt19937 random(7);
+  std::normal_distribution<double> range_noise(0.0, 0.02);
+  PointList points;
+  for (const double elevation_deg : {-13.0, -15.0, -17.0, -19.0}) {
+    const double elevation = elevation_deg * M_PI / 180.0;
+    const double range = height / std::sin(-elevation);
+    for (int step = 0; step < 1800; ++step) {
+      const double azimuth = step * 2.0 * M_PI / 1800.0;
+      const Eigen::Vector3d beam(std::cos(elevation) * std::cos(azimuth),
+                                 std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+      points.push_back(((range + range_noise(random)) * beam).cast<float>());
+    }
+  }
+  const TargetDistributions target(points, 0.7, 4, 0.05);
+  ASSERT_GT(target.size(), 100u);
+
+  // The direction each distribution holds most tightly, against the ground's normal (z).
+  std::vector<double> tilt_deg;
+  for (std::size_t i = 0; i < target.size(); ++i) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(target[static_cast<int>(i)].information);
+    const Eigen::Vector3f held = solver.eigenvectors().col(2);
+    tilt_deg.push_back(std::acos(std::min(1.0f, std::abs(held.z()))) * 180.0 / M_PI);
+  }
+  std::sort(tilt_deg.begin(), tilt_deg.end());
+  const double median = tilt_deg[tilt_deg.size() / 2];
+  const double share_within_3deg =
+      static_cast<double>(std::lower_bound(tilt_deg.begin(), tilt_deg.end(), 3.0) -
+                          tilt_deg.begin()) /
+      static_cast<double>(tilt_deg.size());
+  EXPECT_LT(median, 2.0);
+  EXPECT_GT(share_within_3deg, 0.8);
+
+  // The premise: the cubes' own points alone give the cone, not the ground.
+  const SourceSamples cubes = makeSourceSamples(points, 0.7);
+  std::vector<double> own_tilt_deg;
+  for (const SourceSample& s : cubes.samples) {
+    if (s.count < 4)
+      continue;
+    Eigen::Matrix3f c;
+    c << s.covariance[0], s.covariance[1], s.covariance[2], s.covariance[1], s.covariance[3],
+        s.covariance[4], s.covariance[2], s.covariance[4], s.covariance[5];
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(c);
+    own_tilt_deg.push_back(
+        std::acos(std::min(1.0f, std::abs(solver.eigenvectors().col(0).z()))) * 180.0 / M_PI);
+  }
+  std::sort(own_tilt_deg.begin(), own_tilt_deg.end());
+  EXPECT_GT(own_tilt_deg[own_tilt_deg.size() / 2], 8.0);
 }

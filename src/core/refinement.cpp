@@ -58,19 +58,112 @@ extrapolation(const Eigen::Matrix<double, 6, 1>& step, const Eigen::Matrix<doubl
   return ratio < kMaxRatio ? std::min(kMaxExtrapolation, 1.0 / (1.0 - ratio)) : 1.0;
 }
 
-/** \a c with its two larger eigenvalues raised to at least \a floor (the smallest, across
- * the surface, is kept). Closed-form eigen-decomposition in double: cheap enough for every
- * cube, and exact enough for the near-degenerate covariances of planes and lines. */
-Eigen::Matrix3f
-flattenedCovariance(const Eigen::Matrix3f& c, double floor)
+/** A cube whose points spread across their main direction less than this fraction of the
+ * spread along it (ratio of the two larger principal standard deviations) is a strip: one or
+ * two scan lines of a sparse scanner, whose fitted plane follows the laser's cone and the
+ * lines' calibration offsets rather than the surface. Measured on KITTI scans thinned to 16
+ * rings: it halves the pull of roll and pitch towards zero relative motion. */
+constexpr double kStripSpreadRatio = 0.5;
+
+/** Principal variances (ascending) and axes of \a c, in double: closed form, cheap enough for
+ * every cube and exact enough for the near-degenerate covariances of planes and lines. */
+Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>
+principalAxes(const Eigen::Matrix3d& c)
 {
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
-  solver.computeDirect(c.cast<double>());
-  Eigen::Vector3d values = solver.eigenvalues(); // ascending
-  values[1] = std::max(values[1], floor);
-  values[2] = std::max(values[2], floor);
-  const Eigen::Matrix3d& vectors = solver.eigenvectors();
-  return (vectors * values.asDiagonal() * vectors.transpose()).cast<float>();
+  solver.computeDirect(c);
+  return solver;
+}
+
+/** The covariance with principal \a axes and \a variances (ascending), the two larger raised
+ * to at least \a floor (the smallest, across the surface, is kept). */
+Eigen::Matrix3d
+flattenedCovariance(const Eigen::Matrix3d& axes, Eigen::Vector3d variances, double floor)
+{
+  variances[1] = std::max(variances[1], floor);
+  variances[2] = std::max(variances[2], floor);
+  return axes * variances.asDiagonal() * axes.transpose();
+}
+
+Eigen::Matrix3d
+covarianceOf(const SourceSample& s)
+{
+  Eigen::Matrix3d c;
+  c << s.covariance[0], s.covariance[1], s.covariance[2], //
+      s.covariance[1], s.covariance[3], s.covariance[4],  //
+      s.covariance[2], s.covariance[4], s.covariance[5];
+  return c;
+}
+
+/** Open-addressing hash table of (key + 1, index); key + 1 == 0 marks an empty slot. */
+using Slots = std::vector<std::pair<std::uint64_t, std::int32_t>>;
+
+std::uint64_t
+makeSlots(Slots& slots, std::size_t entries)
+{
+  std::size_t capacity = 16;
+  while (capacity < 2 * entries)
+    capacity *= 2;
+  slots.assign(capacity, {0, -1});
+  return capacity - 1;
+}
+
+void
+insertSlot(Slots& slots, std::uint64_t mask, std::uint64_t key, std::int32_t index)
+{
+  for (std::uint64_t slot = mix(key + 1) & mask;; slot = (slot + 1) & mask)
+    if (slots[slot].first == 0) {
+      slots[slot] = {key + 1, index};
+      return;
+    }
+}
+
+int
+findSlot(const Slots& slots, std::uint64_t mask, std::uint64_t key)
+{
+  for (std::uint64_t slot = mix(key + 1) & mask;; slot = (slot + 1) & mask) {
+    if (slots[slot].first == key + 1)
+      return slots[slot].second;
+    if (slots[slot].first == 0)
+      return -1;
+  }
+}
+
+/** Covariance of the points of the 3x3x3 cells around \a centre's (cell moments pooled). */
+Eigen::Matrix3d
+neighbourhoodCovariance(const SourceSamples& cells,
+                        const Slots& cell_slots,
+                        std::uint64_t cell_mask,
+                        const SourceSample& centre,
+                        float inv_cell)
+{
+  // Moments about the centre cube's mean, which keeps the sums well conditioned.
+  double count = 0.0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  const Eigen::Vector3f c = cellCoordinates(centre.position, cells.grid_origin, inv_cell);
+  const Eigen::Vector3i cell(static_cast<int>(c.x()), static_cast<int>(c.y()), static_cast<int>(c.z()));
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const Eigen::Vector3i n = cell + Eigen::Vector3i(dx, dy, dz);
+        if ((n.array() < 0).any() || (n.array() >= static_cast<int>(kKeyLimit)).any())
+          continue;
+        const std::uint64_t key = (static_cast<std::uint64_t>(n.z()) << (2 * kKeyBits)) |
+                                  (static_cast<std::uint64_t>(n.y()) << kKeyBits) |
+                                  static_cast<std::uint64_t>(n.x());
+        const int index = findSlot(cell_slots, cell_mask, key);
+        if (index < 0)
+          continue;
+        const SourceSample& o = cells.samples[static_cast<std::size_t>(index)];
+        const double w = o.count;
+        const Eigen::Vector3d d = (o.position - centre.position).cast<double>();
+        count += w;
+        sum += w * d;
+        second += w * (covarianceOf(o) + d * d.transpose());
+      }
+  const Eigen::Vector3d mean = sum / count;
+  return second / count - mean * mean.transpose();
 }
 
 } // namespace
@@ -102,33 +195,53 @@ TargetDistributions::TargetDistributions(const PointList& points,
   // the statistics needed here, and its grid origin is where keyOf() must start.
   const SourceSamples cells = makeSourceSamples(points, cell_size);
   origin_ = cells.grid_origin;
+
+  // Every cell by key, sparse ones included: the neighbourhood of a strip pools them all.
+  Slots cell_slots;
+  const std::uint64_t cell_mask = makeSlots(cell_slots, cells.samples.size());
+  for (std::size_t i = 0; i < cells.samples.size(); ++i) {
+    bool inside = false;
+    const std::uint64_t key = keyOf(cells.samples[i].position, inside);
+    if (inside)
+      insertSlot(cell_slots, cell_mask, key, static_cast<std::int32_t>(i));
+  }
+
   const float noise = static_cast<float>(noise_sigma * noise_sigma);
   const double in_surface_floor = 0.25 * cell_size * cell_size;
+  const double strip_variance_ratio = kStripSpreadRatio * kStripSpreadRatio;
   for (const SourceSample& s : cells.samples) {
     if (s.count < static_cast<std::uint32_t>(std::max(min_points, 1)))
       continue;
-    Eigen::Matrix3f c;
-    c << s.covariance[0], s.covariance[1], s.covariance[2], //
-        s.covariance[1], s.covariance[3], s.covariance[4],  //
-        s.covariance[2], s.covariance[4], s.covariance[5];
-    c = flattenedCovariance(c, in_surface_floor);
-    c.diagonal().array() += noise;
-    distributions_.push_back({s.position, c.inverse()});
-  }
-  std::size_t capacity = 16;
-  while (capacity < 2 * distributions_.size())
-    capacity *= 2;
-  mask_ = capacity - 1;
-  table_.assign(capacity, {0, -1});
-  for (std::size_t i = 0; i < distributions_.size(); ++i) {
-    bool inside = false;
-    const std::uint64_t key = keyOf(distributions_[i].mean, inside) + 1;
-    for (std::uint64_t slot = mix(key) & mask_;; slot = (slot + 1) & mask_) {
-      if (table_[slot].first == 0) {
-        table_[slot] = {key, static_cast<std::int32_t>(i)};
-        break;
+    const Eigen::Matrix3d c = covarianceOf(s);
+    const auto own = principalAxes(c);
+    const Eigen::Vector3d& spread = own.eigenvalues();
+    Eigen::Matrix3d flattened;
+    bool pooled_normal = false;
+    if (spread[1] < strip_variance_ratio * spread[2]) {
+      // A strip fixes no plane. Take the orientation of the points of its 3x3x3 cubes,
+      // which span more scan lines, when those are less strip-like than the cube itself,
+      // and keep the cube's own spread along the pooled normal.
+      const auto pooled =
+          principalAxes(neighbourhoodCovariance(cells, cell_slots, cell_mask, s, inv_cell_));
+      const Eigen::Vector3d& pooled_spread = pooled.eigenvalues();
+      if (pooled_spread[1] * spread[2] > spread[1] * pooled_spread[2]) {
+        const Eigen::Vector3d normal = pooled.eigenvectors().col(0);
+        const Eigen::Matrix3d across = normal * normal.transpose();
+        flattened = across * normal.dot(c * normal) +
+                    (Eigen::Matrix3d::Identity() - across) * std::max(spread[2], in_surface_floor);
+        pooled_normal = true;
       }
     }
+    if (!pooled_normal)
+      flattened = flattenedCovariance(own.eigenvectors(), spread, in_surface_floor);
+    Eigen::Matrix3f covariance = flattened.cast<float>();
+    covariance.diagonal().array() += noise;
+    distributions_.push_back({s.position, covariance.inverse()});
+  }
+  mask_ = makeSlots(table_, distributions_.size());
+  for (std::size_t i = 0; i < distributions_.size(); ++i) {
+    bool inside = false;
+    insertSlot(table_, mask_, keyOf(distributions_[i].mean, inside), static_cast<std::int32_t>(i));
   }
 }
 
@@ -138,15 +251,8 @@ TargetDistributions::find(const Eigen::Vector3f& p) const
   if (distributions_.empty())
     return -1;
   bool inside = false;
-  const std::uint64_t key = keyOf(p, inside) + 1;
-  if (!inside)
-    return -1;
-  for (std::uint64_t slot = mix(key) & mask_;; slot = (slot + 1) & mask_) {
-    if (table_[slot].first == key)
-      return table_[slot].second;
-    if (table_[slot].first == 0)
-      return -1;
-  }
+  const std::uint64_t key = keyOf(p, inside);
+  return inside ? findSlot(table_, mask_, key) : -1;
 }
 
 RefinementResult

@@ -26,6 +26,12 @@ public:
    * the target's scan lines crossed a surface says little about the surface, so samples
    * may slide along it and are held mainly across it (GICP's plane regularisation in
    * spirit; measured on KITTI: 1-3 mm less mean error in every distance bin).
+   * A cube whose points form a strip (one or two scan lines of a sparse scanner: spread
+   * across less than half the spread along) takes its across-surface direction from the
+   * points of its 3x3x3 cubes instead, when those are less strip-like: a plane through one
+   * scan line is the laser's cone, which moves with the sensor and pulls roll and pitch
+   * towards zero relative motion (measured on KITTI thinned to 16 rings: mean roll error
+   * 0.150 -> 0.102 deg from the reference pose).
    * \a noise_sigma (m) is then added to the diagonal as squared noise, which keeps the
    * distributions invertible and bounds how sharply a single cube can pull. */
   TargetDistributions(const PointList& points,
