@@ -166,9 +166,10 @@ __kernel void reduce_overlap(__global const float* group_boxes,
   const int d[3] = {dims.x, dims.y, dims.z};
   int ok = num_samples > 0;
   for (int a = 0; a < 3; ++a) {
-    /* Clamp before converting: a far-off pose must not overflow the integer cast. */
-    const int lo = max(0, (int)floor(fmax(box[a], -1.0f)));
-    const int hi = min(d[a] - 1, (int)floor(fmin(box[3 + a], (float)d[a])));
+    /* Clamp both ends to [-1, d] before converting: a far-off pose must not overflow the
+     * integer cast, whichever side of the grid it lies on. */
+    const int lo = max(0, (int)floor(clamp(box[a], -1.0f, (float)d[a])));
+    const int hi = min(d[a] - 1, (int)floor(clamp(box[3 + a], -1.0f, (float)d[a])));
     overlap[a] = lo;
     overlap[3 + a] = hi;
     ok = ok && lo <= hi;

@@ -144,10 +144,13 @@ private:
     Eigen::Vector3i lo, hi;
     bool overlap = !samples.empty();
     for (int a = 0; a < 3 && overlap; ++a) {
-      // Clamp before converting: a far-off pose must not overflow the integer cast.
-      lo[a] = std::max(0, static_cast<int>(std::floor(std::max(min[a], -1.0f))));
-      hi[a] = std::min(g.dims[a] - 1,
-                       static_cast<int>(std::floor(std::min(max[a], grid_end[a]))));
+      // Clamp both ends to [-1, grid end] before converting: a far-off pose must not
+      // overflow the integer cast, whichever side of the grid it lies on.
+      const auto voxel = [&](float v) {
+        return static_cast<int>(std::floor(std::min(std::max(v, -1.0f), grid_end[a])));
+      };
+      lo[a] = std::max(0, voxel(min[a]));
+      hi[a] = std::min(g.dims[a] - 1, voxel(max[a]));
       overlap = lo[a] <= hi[a];
     }
     if (!overlap) {
