@@ -349,6 +349,7 @@ class OpenClBackend final : public ScoringBackend {
 public:
   explicit OpenClBackend(std::shared_ptr<OpenClDevice> device) : device_(std::move(device))
   {
+    const auto start = Clock::now();
     cl_int error = CL_SUCCESS;
     queue_ = clCreateCommandQueue(device_->context, device_->device, CL_QUEUE_PROFILING_ENABLE,
                                   &error);
@@ -364,6 +365,7 @@ public:
     }
     counters_.allocate(device_->context, 4 * sizeof(cl_uint));
     overlap_.allocate(device_->context, 8 * sizeof(cl_int));
+    addHost("queue and kernels", millisecondsSince(start));
     addHost("program build (shared)", device_->build_ms);
   }
 

@@ -1,0 +1,451 @@
+/*
+ * pcl_mi_backend_bench: times the registration engine on each scoring backend (CPU, OpenCL)
+ * on KITTI pairs, with the OpenCL kernels' own times per stage. It uses only the
+ * PCL-free engine (pcl_mi::RegistrationCore) and reads KITTI .bin scans itself, so it can be
+ * built for a GPU machine that has no PCL (scripts/build_backend_bench.sh). A benchmark, not
+ * a test: the figures depend on the machine and its load.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_mi/kitti.h>
+#include <pcl_mi/registration_core.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+struct Pair {
+  std::string sequence;
+  int target_frame = 0, source_frame = 0;
+  pcl_mi::PointList target, source;
+  Eigen::Matrix4d reference; // source to target
+};
+
+std::vector<std::string>
+split(const std::string& s, char sep)
+{
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, sep))
+    if (!item.empty())
+      out.push_back(item);
+  return out;
+}
+
+/** KITTI Velodyne scan: float32 x, y, z, intensity per point. */
+bool
+loadBin(const std::string& path, pcl_mi::PointList& points, std::string& error)
+{
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) {
+    error = "cannot open '" + path + "'";
+    return false;
+  }
+  const std::streamsize bytes = in.tellg();
+  if (bytes <= 0 || bytes % 16 != 0) {
+    error = "'" + path + "' is not a KITTI .bin scan (size not a multiple of 16 bytes)";
+    return false;
+  }
+  std::vector<float> raw(static_cast<std::size_t>(bytes / 4));
+  in.seekg(0);
+  in.read(reinterpret_cast<char*>(raw.data()), bytes);
+  points.clear();
+  points.reserve(raw.size() / 4);
+  for (std::size_t i = 0; i + 3 < raw.size(); i += 4)
+    points.emplace_back(raw[i], raw[i + 1], raw[i + 2]);
+  return true;
+}
+
+double
+median(std::vector<double> v)
+{
+  if (v.empty())
+    return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double
+rotationErrorDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
+{
+  const Eigen::Matrix3d r = a.topLeftCorner<3, 3>().transpose() * b.topLeftCorner<3, 3>();
+  const double c = std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0);
+  return std::acos(c) * 180.0 / M_PI;
+}
+
+pcl_mi::Parameters
+configParameters(const std::string& name, std::string& error)
+{
+  if (name == "default")
+    return pcl_mi::Parameters();
+  if (name == "paper")
+    return pcl_mi::Parameters::paper();
+  error = "unknown configuration '" + name + "' (default, paper)";
+  return pcl_mi::Parameters();
+}
+
+void
+usage()
+{
+  std::printf(
+      "Usage: pcl_mi_backend_bench [options]\n"
+      "Times RegistrationCore alignments (both clouds set, then align) and single cost evaluations per backend on KITTI\n"
+      "pairs (both directions, identity guess), and prints the OpenCL kernels' times.\n"
+      "  -kitti DIR           KITTI odometry root (default data/kitti)\n"
+      "  -pairs S:I:J,...     pairs as sequence:target frame:source frame (default\n"
+      "                       00:0:9,02:0:6, the bundled pairs)\n"
+      "  -poses semantic|gt   reference poses: sequences/SS/poses.txt or poses/SS.txt\n"
+      "                       (default semantic)\n"
+      "  -backends LIST       cpu,opencl (default)\n"
+      "  -configs LIST        default (pcl_mi's defaults), paper (Parameters::paper(): 1 m\n"
+      "                       grid, every point in every evaluation) (default both)\n"
+      "  -repeat N            alignments per pair, direction, backend and configuration;\n"
+      "                       the first is a warm-up and not timed (default 5)\n"
+      "  -evaluations N       single cost evaluations timed per row at poses drawn around\n"
+      "                       the reference, +-2 m and +-5 deg (default 200)\n"
+      "  -threads N           Parameters::num_threads (default: the configuration's)\n"
+      "  -opencl_device P,D   OpenCL platform and device (default: first GPU, else first)\n");
+}
+
+struct Row {
+  std::string pair, config, backend;
+  double median_align_s = 0.0, error_m = 0.0, error_deg = 0.0, evaluations = 0.0;
+  double median_eval_us = 0.0, first_s = 0.0;
+  std::uint64_t histogram_hash = 0; // of the joint histograms at every evaluation pose
+  Eigen::Matrix4d transformation;
+  std::vector<pcl_mi::StageTiming> profile; // of the timed cost evaluations
+  std::vector<pcl_mi::StageTiming> align_stages, align_profile; // of the last alignment
+  std::string backend_name;
+};
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  std::string root = "data/kitti", pairs_arg = "00:0:9,02:0:6", poses_kind = "semantic";
+  std::string backends_arg = "cpu,opencl", configs_arg = "default,paper", device_arg;
+  int repeat = 5, evaluations = 200, threads = 0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "pcl_mi_backend_bench: %s needs a value\n", a.c_str());
+        std::exit(1);
+      }
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      usage();
+      return 0;
+    }
+    else if (a == "-kitti")
+      root = next();
+    else if (a == "-pairs")
+      pairs_arg = next();
+    else if (a == "-poses")
+      poses_kind = next();
+    else if (a == "-backends")
+      backends_arg = next();
+    else if (a == "-configs")
+      configs_arg = next();
+    else if (a == "-repeat")
+      repeat = std::atoi(next().c_str());
+    else if (a == "-evaluations")
+      evaluations = std::atoi(next().c_str());
+    else if (a == "-threads")
+      threads = std::atoi(next().c_str());
+    else if (a == "-opencl_device")
+      device_arg = next();
+    else {
+      std::fprintf(stderr, "pcl_mi_backend_bench: unknown option '%s' (see -h)\n", a.c_str());
+      return 1;
+    }
+  }
+  if (repeat < 2 || evaluations < 1 || threads < 0 ||
+      (poses_kind != "semantic" && poses_kind != "gt")) {
+    std::fprintf(stderr, "pcl_mi_backend_bench: -repeat must be >= 2, -evaluations >= 1, "
+                         "-threads >= 0, -poses semantic or gt\n");
+    return 1;
+  }
+  int platform = -1, device = -1;
+  if (!device_arg.empty() && std::sscanf(device_arg.c_str(), "%d,%d", &platform, &device) != 2) {
+    std::fprintf(stderr, "pcl_mi_backend_bench: -opencl_device expects P,D\n");
+    return 1;
+  }
+
+  // Load every pair once, both scans and the reference.
+  std::vector<Pair> pairs;
+  std::map<std::string, std::pair<Eigen::Matrix4d, std::vector<Eigen::Matrix4d>>> sequences;
+  for (const auto& spec : split(pairs_arg, ',')) {
+    const auto f = split(spec, ':');
+    if (f.size() != 3) {
+      std::fprintf(stderr, "pcl_mi_backend_bench: bad pair '%s' (S:I:J)\n", spec.c_str());
+      return 1;
+    }
+    Pair p;
+    p.sequence = f[0];
+    p.target_frame = std::atoi(f[1].c_str());
+    p.source_frame = std::atoi(f[2].c_str());
+    if (!sequences.count(p.sequence)) {
+      Eigen::Matrix4d tr;
+      std::vector<Eigen::Matrix4d> poses;
+      std::string error = pcl_mi::kitti::loadCalibrationTr(
+          root + "/sequences/" + p.sequence + "/calib.txt", tr);
+      if (error.empty())
+        error = pcl_mi::kitti::loadPoses(
+            poses_kind == "gt" ? root + "/poses/" + p.sequence + ".txt"
+                               : root + "/sequences/" + p.sequence + "/poses.txt",
+            poses);
+      if (!error.empty()) {
+        std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", error.c_str());
+        return 1;
+      }
+      sequences[p.sequence] = {tr, poses};
+    }
+    const auto& [tr, poses] = sequences[p.sequence];
+    if (std::max(p.target_frame, p.source_frame) >= static_cast<int>(poses.size()) ||
+        std::min(p.target_frame, p.source_frame) < 0) {
+      std::fprintf(stderr, "pcl_mi_backend_bench: pair '%s' is outside the poses file\n",
+                   spec.c_str());
+      return 1;
+    }
+    p.reference = pcl_mi::kitti::relativeVelodyneTransform(tr, poses[p.target_frame],
+                                                           poses[p.source_frame]);
+    std::string error;
+    if (!loadBin(pcl_mi::kitti::scanPath(root, p.sequence, p.target_frame), p.target, error) ||
+        !loadBin(pcl_mi::kitti::scanPath(root, p.sequence, p.source_frame), p.source, error)) {
+      std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", error.c_str());
+      return 1;
+    }
+    pairs.push_back(p);
+    // The backward direction: source = the earlier scan.
+    Pair b;
+    b.sequence = p.sequence;
+    b.target_frame = p.source_frame;
+    b.source_frame = p.target_frame;
+    b.target = p.source;
+    b.source = p.target;
+    b.reference = p.reference.inverse();
+    pairs.push_back(b);
+  }
+
+  std::vector<Row> rows;
+  for (const auto& config : split(configs_arg, ',')) {
+    for (const auto& backend_name : split(backends_arg, ',')) {
+      std::string error;
+      pcl_mi::Parameters parameters = configParameters(config, error);
+      if (!error.empty() || !pcl_mi::parseBackend(backend_name, parameters.backend)) {
+        std::fprintf(stderr, "pcl_mi_backend_bench: %s\n",
+                     error.empty() ? ("unknown backend '" + backend_name + "'").c_str()
+                                   : error.c_str());
+        return 1;
+      }
+      parameters.opencl_platform = platform;
+      parameters.opencl_device = device;
+      if (threads > 0)
+        parameters.num_threads = threads;
+      for (const auto& p : pairs) {
+        Row row;
+        row.pair = p.sequence + ":" + std::to_string(p.source_frame) + "->" +
+                   std::to_string(p.target_frame);
+        row.config = config;
+        row.backend = backend_name;
+        std::fprintf(stderr, "[%zu/%zu] %s %s %s ...\n", rows.size() + 1,
+                     pairs.size() * split(configs_arg, ',').size() *
+                         split(backends_arg, ',').size(),
+                     row.pair.c_str(), config.c_str(), backend_name.c_str());
+
+        pcl_mi::RegistrationCore core;
+        const std::string invalid = core.setParameters(parameters);
+        if (!invalid.empty()) {
+          std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", invalid.c_str());
+          return 1;
+        }
+        std::vector<double> align_s, evals;
+        pcl_mi::AlignmentResult result;
+        for (int r = 0; r < repeat; ++r) {
+          // What a pipeline pays per new pair: both clouds handed over (target features,
+          // device buffers) and the alignment.
+          const auto t0 = std::chrono::steady_clock::now();
+          core.setTarget(p.target);
+          core.setSource(p.source);
+          result = core.align(Eigen::Matrix4d::Identity());
+          const double s =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          if (!result.error.empty()) {
+            std::fprintf(stderr, "pcl_mi_backend_bench: %s %s: %s\n", row.pair.c_str(),
+                         backend_name.c_str(), result.error.c_str());
+            return 1;
+          }
+          if (r == 0)
+            row.first_s = s;
+          else { // the first alignment pays the backend's start-up
+            align_s.push_back(s);
+            evals.push_back(result.evaluations);
+          }
+        }
+        row.backend_name = core.backendName();
+        row.median_align_s = median(align_s);
+        row.transformation = result.transformation;
+        row.align_stages = result.stages;
+        row.align_profile = core.backendProfile(); // the backends are new with each target
+        row.evaluations = median(evals);
+        row.error_m = (result.transformation.topRightCorner<3, 1>() -
+                       p.reference.topRightCorner<3, 1>())
+                          .norm();
+        row.error_deg = rotationErrorDeg(result.transformation, p.reference);
+
+        // Single evaluations at poses around the reference, same poses for every backend.
+        std::mt19937 rng(1);
+        std::uniform_real_distribution<double> unit(-1.0, 1.0);
+        std::vector<double> eval_us;
+        core.resetBackendProfile();
+        for (int e = 0; e < evaluations; ++e) {
+          Eigen::Affine3d delta = Eigen::Translation3d(2.0 * unit(rng), 2.0 * unit(rng),
+                                                       0.2 * unit(rng)) *
+                                  Eigen::AngleAxisd(5.0 * M_PI / 180.0 * unit(rng),
+                                                    Eigen::Vector3d::UnitZ());
+          const Eigen::Matrix4d pose = delta.matrix() * p.reference;
+          const auto t0 = std::chrono::steady_clock::now();
+          std::string eval_error;
+          if (core.evaluate(pose, &eval_error) < 0.0) {
+            std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", eval_error.c_str());
+            return 1;
+          }
+          eval_us.push_back(
+              1e6 *
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        }
+        row.median_eval_us = median(eval_us);
+        row.profile = core.backendProfile();
+
+        // Fingerprint (FNV-1a) of the joint histograms at the same poses, for comparing
+        // backends count for count.
+        rng.seed(1);
+        std::uint64_t hash = 1469598103934665603ull;
+        pcl_mi::JointHistogram histogram;
+        for (int e = 0; e < evaluations; ++e) {
+          Eigen::Affine3d delta = Eigen::Translation3d(2.0 * unit(rng), 2.0 * unit(rng),
+                                                       0.2 * unit(rng)) *
+                                  Eigen::AngleAxisd(5.0 * M_PI / 180.0 * unit(rng),
+                                                    Eigen::Vector3d::UnitZ());
+          std::string histogram_error;
+          if (!core.jointHistogram(delta.matrix() * p.reference, histogram, &histogram_error)) {
+            std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", histogram_error.c_str());
+            return 1;
+          }
+          for (const std::uint32_t c : histogram.counts)
+            hash = (hash ^ c) * 1099511628211ull;
+          hash = (hash ^ histogram.overlap_voxels) * 1099511628211ull;
+        }
+        row.histogram_hash = hash;
+        rows.push_back(row);
+      }
+    }
+  }
+
+  std::printf("\nAlignments (identity guess; median of %d after a warm-up) and single cost "
+              "evaluations (median of %d)\n",
+              repeat - 1, evaluations);
+  // "pose diff": largest difference of the final transformation's entries from another
+  // backend's on the same pair and configuration; "histograms": whether the joint
+  // histograms at every evaluation pose equal that backend's, count for count. The
+  // backends' arithmetic is identical, so the diff should be 0 and the histograms equal.
+  std::printf("%-11s %-7s %-7s %8s %8s %6s %7s %7s %9s %9s %10s  %s\n", "pair", "config",
+              "backend", "first s", "align s", "evals", "err m", "err deg", "eval us",
+              "pose diff", "histograms", "device");
+  int mismatches = 0;
+  for (const auto& r : rows) {
+    double diff = 0.0;
+    const char* same = "-";
+    for (const auto& f : rows)
+      if (&f != &r && f.pair == r.pair && f.config == r.config) {
+        diff = (f.transformation - r.transformation).cwiseAbs().maxCoeff();
+        same = f.histogram_hash == r.histogram_hash ? "equal" : "DIFFER";
+        mismatches += f.histogram_hash != r.histogram_hash;
+        break;
+      }
+    std::printf("%-11s %-7s %-7s %8.4f %8.4f %6.0f %7.3f %7.3f %9.1f %9.2g %10s  %s\n",
+                r.pair.c_str(), r.config.c_str(), r.backend.c_str(), r.first_s,
+                r.median_align_s, r.evaluations, r.error_m, r.error_deg, r.median_eval_us,
+                diff, same, r.backend_name.c_str());
+  }
+
+  // Medians over pairs per (configuration, backend), and ratios to the first backend.
+  std::printf("\nPer configuration and backend (median over pairs and directions)\n");
+  std::printf("%-8s %-7s %9s %10s %9s\n", "config", "backend", "align s", "eval us",
+              "vs first");
+  for (const auto& config : split(configs_arg, ',')) {
+    double first = 0.0;
+    for (const auto& backend : split(backends_arg, ',')) {
+      std::vector<double> a, e;
+      for (const auto& r : rows)
+        if (r.config == config && r.backend == backend) {
+          a.push_back(r.median_align_s);
+          e.push_back(r.median_eval_us);
+        }
+      const double ma = median(a);
+      if (first == 0.0)
+        first = ma;
+      std::printf("%-8s %-7s %9.4f %10.1f %8.2fx\n", config.c_str(), backend.c_str(), ma,
+                  median(e), ma / first);
+    }
+  }
+
+  // Stage tables: summed over the rows of each configuration and backend.
+  auto stageTable = [&](const char* title, const char* unit,
+                        std::vector<pcl_mi::StageTiming> Row::*member, bool per_call) {
+    std::printf("\n%s\n%-8s %-7s %-32s %8s %10s\n", title, "config", "backend", "stage",
+                "calls", unit);
+    for (const auto& config : split(configs_arg, ','))
+      for (const auto& backend : split(backends_arg, ',')) {
+        std::vector<std::string> order;
+        std::map<std::string, std::pair<long, double>> sum;
+        long num_rows = 0;
+        for (const auto& r : rows)
+          if (r.config == config && r.backend == backend) {
+            ++num_rows;
+            for (const auto& s : r.*member) {
+              if (!sum.count(s.name))
+                order.push_back(s.name);
+              sum[s.name].first += s.calls;
+              sum[s.name].second += s.total_ms;
+            }
+          }
+        for (const auto& name : order) {
+          const auto& [calls, ms] = sum[name];
+          const double value = per_call ? (calls ? 1000.0 * ms / calls : 0.0)
+                                        : (num_rows ? ms / num_rows : 0.0);
+          std::printf("%-8s %-7s %-32s %8ld %10.2f\n", config.c_str(), backend.c_str(),
+                      name.c_str(), calls, value);
+        }
+      }
+  };
+  stageTable("Backend stages of the single evaluations, per call (summed over pairs)",
+             "us/call", &Row::profile, true);
+  stageTable("Stages of one alignment (the last of each row), mean over pairs", "ms",
+             &Row::align_stages, false);
+  stageTable("Backend work within that alignment, mean over pairs", "ms",
+             &Row::align_profile, false);
+  if (mismatches) {
+    std::printf("\nThe backends' joint histograms differ (%d rows): a backend bug.\n",
+                mismatches);
+    return 2;
+  }
+  return 0;
+}
