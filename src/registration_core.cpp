@@ -61,6 +61,8 @@ validateBinning(const char* what, const FeatureBinning& b)
     s << what << " binning needs 1..255 bins, got " << b.num_bins;
   else if (!(b.max_value > 0.0) || !std::isfinite(b.max_value))
     s << what << " binning needs a positive finite maximum value, got " << b.max_value;
+  else if (!(b.range_quantile >= 0.0 && b.range_quantile <= 1.0))
+    s << what << " binning's range quantile must be in [0, 1], got " << b.range_quantile;
   return s.str();
 }
 
@@ -75,6 +77,8 @@ Parameters::paper()
   p.source_subdivision = 0;
   p.restarts = 0;
   p.refinement = Refinement::None;
+  p.variance_z_binning.range_quantile = 0.0;
+  p.point_count_binning.range_quantile = 0.0;
   return p;
 }
 
@@ -477,7 +481,8 @@ RegistrationCore::setParameters(const Parameters& parameters)
                             old.pyramid_levels != parameters.pyramid_levels ||
                             old.feature != parameters.feature ||
                             old.binning().num_bins != parameters.binning().num_bins ||
-                            old.binning().max_value != parameters.binning().max_value;
+                            old.binning().max_value != parameters.binning().max_value ||
+                            old.binning().range_quantile != parameters.binning().range_quantile;
   if (grid_changed) {
     impl_->target_dirty = true;
     // The outlier gap scales with the resolution.

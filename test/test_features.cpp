@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 using namespace pcl_mi;
 using namespace pcl_mi::core;
 
@@ -114,6 +116,64 @@ TEST(TargetGrid, HandBuiltVoxels)
   EXPECT_EQ(grid.bins[grid.geometry.cellIndex(0, 0, 0)], 4);
   EXPECT_EQ(grid.bins[grid.geometry.cellIndex(2, 1, 0)], 2);
   EXPECT_EQ(grid.bins[grid.geometry.cellIndex(1, 0, 0)], 0);
+}
+
+/** Voxels (v, 0, 0) for v = 0..7 holding (v + 1) * density points each. */
+static PointList
+countRamp(int density)
+{
+  PointList points;
+  for (int v = 0; v < 8; ++v)
+    for (int k = 0; k < (v + 1) * density; ++k)
+      points.emplace_back(v + 0.5f, 0.5f, 0.05f + 0.9f * k / ((v + 1) * density));
+  return points;
+}
+
+TEST(TargetGrid, RangeQuantileTakesTheRangeFromTheTargetsOwnVoxels)
+{
+  // Counts 1..8: the upper quartile (index 0.75 * 7 -> 5 of the sorted counts) is 6.
+  TargetGrid grid;
+  std::string error;
+  ASSERT_TRUE(
+      buildTargetGrid(countRamp(1), 1.0, Feature::PointCount, {16, 64.0, 0.75}, grid, error))
+      << error;
+  EXPECT_DOUBLE_EQ(grid.binning.max_value, 6.0);
+  EXPECT_EQ(grid.bins[grid.geometry.cellIndex(0, 0, 0)], 1 + 16 * 1 / 6); // 1 point
+  EXPECT_EQ(grid.bins[grid.geometry.cellIndex(7, 0, 0)], 16);             // beyond the range
+  // The fixed range ignores the data.
+  ASSERT_TRUE(
+      buildTargetGrid(countRamp(1), 1.0, Feature::PointCount, {16, 64.0, 0.0}, grid, error));
+  EXPECT_DOUBLE_EQ(grid.binning.max_value, 64.0);
+}
+
+TEST(TargetGrid, RangeQuantileMakesPointCountBinsIndependentOfSensorDensity)
+{
+  // The same scene seen by a scanner 4x as dense: with the adaptive range every voxel
+  // keeps its bin; with the paper's fixed range the sparse scan crowds into the low bins.
+  auto bins = [](int density, double quantile) {
+    TargetGrid grid;
+    std::string error;
+    EXPECT_TRUE(buildTargetGrid(countRamp(density), 1.0, Feature::PointCount,
+                                {16, 64.0, quantile}, grid, error));
+    std::vector<int> out;
+    for (const auto& v : grid.occupied)
+      out.push_back(v.bin);
+    return out;
+  };
+  EXPECT_EQ(bins(1, 0.75), bins(4, 0.75));
+  EXPECT_NE(bins(1, 0.0), bins(4, 0.0));
+}
+
+TEST(Parameters, PointCountRangeAdaptsByDefaultAndIsFixedInThePaperPreset)
+{
+  EXPECT_DOUBLE_EQ(Parameters().point_count_binning.range_quantile, 0.75);
+  EXPECT_DOUBLE_EQ(Parameters().variance_z_binning.range_quantile, 0.0);
+  EXPECT_DOUBLE_EQ(Parameters::paper().point_count_binning.range_quantile, 0.0);
+  Parameters p;
+  p.point_count_binning.range_quantile = 1.5;
+  EXPECT_NE(p.validate().find("quantile"), std::string::npos);
+  p.point_count_binning.range_quantile = std::nan("");
+  EXPECT_NE(p.validate().find("quantile"), std::string::npos);
 }
 
 TEST(TargetGrid, RefusesGridsBeyondTheCap)

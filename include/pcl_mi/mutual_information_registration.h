@@ -92,10 +92,15 @@ public:
   }
 
   /** \brief Histogram binning of \a feature: \a num_bins (1..255) equal bins over
-   * [0, max_value), see pcl_mi::FeatureBinning. Defaults: VarianceZ 16 bins up to 1/12
-   * (var(z) / R_v^2), PointCount 16 bins up to 64 points. */
+   * [0, max_value), or, with \a range_quantile in (0, 1], over [0, that quantile of the
+   * target's occupied voxels' values) per grid; see pcl_mi::FeatureBinning. A call without
+   * \a range_quantile fixes the range. Defaults: VarianceZ 16 bins up to 1/12
+   * (var(z) / R_v^2); PointCount 16 bins up to the upper quartile of the target's counts. */
   void
-  setFeatureBinning(pcl_mi::Feature feature, int num_bins, double max_value);
+  setFeatureBinning(pcl_mi::Feature feature,
+                    int num_bins,
+                    double max_value,
+                    double range_quantile = 0.0);
   pcl_mi::FeatureBinning
   getFeatureBinning(pcl_mi::Feature feature) const
   {

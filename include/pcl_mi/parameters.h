@@ -64,6 +64,11 @@ enum class Refinement {
 struct FeatureBinning {
   int num_bins = 0;       ///< number of bins for occupied voxels (>= 1)
   double max_value = 0.0; ///< upper end of the binned range (> 0)
+  /** When > 0, each target grid takes max_value from its own occupied voxels instead: the
+   * range_quantile quantile of their feature values (max_value stays the fallback when
+   * that quantile is 0). Source voxels are binned with the same range, so X and Y stay
+   * comparable. 0 = the fixed max_value. In [0, 1]. */
+  double range_quantile = 0.0;
 };
 
 /** \brief All tuning parameters of the mutual-information registration, with their defaults.
@@ -82,8 +87,11 @@ struct Parameters {
   Feature feature = Feature::VarianceZ;
   /** Binning of VarianceZ values (var(z) / resolution^2). */
   FeatureBinning variance_z_binning{16, 1.0 / 12.0};
-  /** Binning of PointCount values (points per voxel). */
-  FeatureBinning point_count_binning{16, 64.0};
+  /** Binning of PointCount values (points per voxel). The range follows the target's
+   * density: up to the upper quartile of its occupied voxels' counts on each pyramid level
+   * (a 16-beam scanner fills voxels far less densely than a 64-beam one; with the paper's
+   * fixed 64 points most of its voxels share the lowest bins). */
+  FeatureBinning point_count_binning{16, 64.0, 0.75};
   /** Initial simplex step per parameter [tx, ty, tz (m), roll, pitch, yaw (rad)]. */
   Eigen::Matrix<double, 6, 1> simplex_steps =
       (Eigen::Matrix<double, 6, 1>() << 8.0, 8.0, 1.0, 0.1, 0.1, 0.8).finished();
@@ -141,7 +149,8 @@ struct Parameters {
   double rotation_tolerance = 0.0005;
 
   /** \brief The paper's exact method: one simplex from the guess, one grid, every source
-   * point in every evaluation; no mirrored start, pyramid, restarts or refinement. */
+   * point in every evaluation, fixed binning ranges; no mirrored start, pyramid, restarts
+   * or refinement. */
   static Parameters
   paper();
 

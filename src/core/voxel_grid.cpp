@@ -146,6 +146,19 @@ buildTargetGrid(const PointList& points,
     const int iz = std::min(std::max(static_cast<int>(std::floor(f.z())), 0), g.dims.z() - 1);
     moments[g.cellIndex(ix, iy, iz)].add(quantiseHeight(f.z(), iz));
   }
+  if (binning.range_quantile > 0.0) {
+    std::vector<double> values;
+    for (const auto& m : moments)
+      if (m.count)
+        values.push_back(featureValue(feature, m));
+    if (!values.empty()) {
+      const auto k = values.begin() + static_cast<std::ptrdiff_t>(
+                                          binning.range_quantile * (values.size() - 1));
+      std::nth_element(values.begin(), k, values.end());
+      if (*k > 0.0)
+        grid.binning.max_value = *k;
+    }
+  }
   grid.bins.assign(g.cellCount(), 0);
   grid.occupied.clear();
   for (int iz = 0; iz < g.dims.z(); ++iz)
@@ -154,7 +167,7 @@ buildTargetGrid(const PointList& points,
         const std::size_t cell = g.cellIndex(ix, iy, iz);
         if (moments[cell].count == 0)
           continue;
-        const auto bin = static_cast<std::uint8_t>(voxelBin(feature, binning, moments[cell]));
+        const auto bin = static_cast<std::uint8_t>(voxelBin(feature, grid.binning, moments[cell]));
         grid.bins[cell] = bin;
         grid.occupied.push_back({static_cast<std::uint32_t>(cell), ix, iy, iz, bin});
       }

@@ -111,7 +111,9 @@ makeGridGeometry(const PointList& points,
                  std::string& error);
 
 /** \brief Builds the target grid from local points. False (with \a error) when the cloud
- * is empty or its extent needs more than kMaxGridCells voxels at this resolution. */
+ * is empty or its extent needs more than kMaxGridCells voxels at this resolution. With
+ * binning.range_quantile > 0, grid.binning.max_value is the grid's own quantile (see
+ * FeatureBinning); backends bin the source with grid.binning. */
 bool
 buildTargetGrid(const PointList& points,
                 double resolution,

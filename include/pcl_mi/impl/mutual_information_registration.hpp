@@ -188,13 +188,14 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeature(
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeatureBinning(
-    pcl_mi::Feature feature, int num_bins, double max_value)
+    pcl_mi::Feature feature, int num_bins, double max_value, double range_quantile)
 {
   updateParameters("setFeatureBinning", [&](pcl_mi::Parameters& p) {
     pcl_mi::FeatureBinning& b = feature == pcl_mi::Feature::VarianceZ ? p.variance_z_binning
                                                                       : p.point_count_binning;
     b.num_bins = num_bins;
     b.max_value = max_value;
+    b.range_quantile = range_quantile;
   });
 }
 
