@@ -6,6 +6,8 @@
  * a test: the figures depend on the machine and its load.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "app_util.h"
+
 #include <pcl_mi/kitti.h>
 #include <pcl_mi/registration_core.h>
 
@@ -24,6 +26,9 @@
 #include <string>
 #include <vector>
 
+using pcl_mi::apps::median;
+using pcl_mi::apps::split;
+
 namespace {
 
 struct Pair {
@@ -32,18 +37,6 @@ struct Pair {
   pcl_mi::PointList target, source;
   Eigen::Matrix4d reference; // source to target
 };
-
-std::vector<std::string>
-split(const std::string& s, char sep)
-{
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  std::string item;
-  while (std::getline(in, item, sep))
-    if (!item.empty())
-      out.push_back(item);
-  return out;
-}
 
 /** KITTI Velodyne scan: float32 x, y, z, intensity per point. */
 bool
@@ -67,16 +60,6 @@ loadBin(const std::string& path, pcl_mi::PointList& points, std::string& error)
   for (std::size_t i = 0; i + 3 < raw.size(); i += 4)
     points.emplace_back(raw[i], raw[i + 1], raw[i + 2]);
   return true;
-}
-
-double
-median(std::vector<double> v)
-{
-  if (v.empty())
-    return 0.0;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 double

@@ -5,6 +5,8 @@
  * (pair, method), and shards: -shard k/N runs every N-th pair, -merge combines the CSVs.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "app_util.h"
+
 #include <pcl_mi/io.h>
 #include <pcl_mi/kitti.h>
 #include <pcl_mi/mutual_information_registration.h>
@@ -35,6 +37,9 @@
 using pcl::console::print_error;
 using pcl::console::print_info;
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+using pcl_mi::apps::median;
+using pcl_mi::apps::split;
 
 namespace {
 
@@ -178,18 +183,6 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
   return true;
 }
 
-std::vector<std::string>
-split(const std::string& s, char sep)
-{
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  std::string item;
-  while (std::getline(in, item, sep))
-    if (!item.empty())
-      out.push_back(item);
-  return out;
-}
-
 double
 yawDegrees(const Eigen::Matrix4d& t)
 {
@@ -302,16 +295,6 @@ runMethod(const std::string& name,
   if (auto* mi = dynamic_cast<pcl::MutualInformationRegistration<pcl::PointXYZ>*>(reg.get()))
     o.evaluations = mi->getNumberOfEvaluations();
   return o;
-}
-
-double
-median(std::vector<double> v)
-{
-  if (v.empty())
-    return NAN;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 double

@@ -1,0 +1,42 @@
+/*
+ * pcl_mi apps: small helpers the command-line apps share (header-only, no PCL, so the
+ * engine-only pcl_mi_backend_bench can use them too).
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace pcl_mi {
+namespace apps {
+
+/** Splits \a s at \a sep, dropping empty items ("a,,b" -> {"a", "b"}). */
+inline std::vector<std::string>
+split(const std::string& s, char sep)
+{
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, sep))
+    if (!item.empty())
+      out.push_back(item);
+  return out;
+}
+
+/** Median of \a v; NaN when empty. */
+inline double
+median(std::vector<double> v)
+{
+  if (v.empty())
+    return NAN;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+} // namespace apps
+} // namespace pcl_mi
