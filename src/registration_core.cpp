@@ -283,10 +283,21 @@ struct RegistrationCore::Impl {
     backend_warning.clear();
     if (parameters.backend == Backend::Cpu)
       return true;
+    // Auto takes OpenCL only where it was measured to be faster (README, OpenCL backend):
+    // on a GPU or accelerator, with every point in every evaluation. Evaluations of a few
+    // thousand samples are too light to hide the device's per-evaluation latency, and an
+    // OpenCL CPU device (PoCL) is slower than the CPU backend on the same cores.
+    if (parameters.backend == Backend::Auto && parameters.source_subdivision != 0)
+      return true;
     std::string why;
 #ifdef PCL_MI_WITH_OPENCL
     opencl_device =
         backend::openClDevice(parameters.opencl_platform, parameters.opencl_device, why);
+    if (opencl_device && parameters.backend == Backend::Auto &&
+        !backend::openClDeviceIsOffload(*opencl_device)) {
+      opencl_device.reset();
+      return true;
+    }
     if (opencl_device) {
       use_opencl = true;
       backend_name = "opencl (" + backend::openClDeviceName(*opencl_device) + ")";
@@ -491,7 +502,9 @@ RegistrationCore::setParameters(const Parameters& parameters)
   if (old.source_subdivision != parameters.source_subdivision)
     impl_->source_dirty = true;
   if (old.backend != parameters.backend || old.opencl_platform != parameters.opencl_platform ||
-      old.opencl_device != parameters.opencl_device) {
+      old.opencl_device != parameters.opencl_device ||
+      (parameters.backend == Backend::Auto &&
+       old.source_subdivision != parameters.source_subdivision)) {
     impl_->target_dirty = true;
     impl_->source_dirty = true;
   }

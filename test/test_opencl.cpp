@@ -130,6 +130,28 @@ TEST(OpenClAlignment, SamePoseAsTheCpuOnTheBundledPairs)
     }
 }
 
+TEST(OpenClAuto, TakesOpenClOnlyWhereItIsFaster)
+{
+  if (!requireOpenCl())
+    GTEST_SKIP() << "no OpenCL device";
+  const auto source = points(*test_data::loadScan("02", 6));
+  const auto target = points(*test_data::loadScan("02", 0));
+  const Eigen::Matrix4d pose = test_data::referenceTransform("02", 0, 6);
+  // Light evaluations (the defaults' samples): the CPU backend, and no fallback warning.
+  auto light = makeCore(Backend::Auto, pcl_mi::Feature::VarianceZ, 3, 2, source, target);
+  EXPECT_GT(light.evaluate(pose), 0.0);
+  EXPECT_EQ(light.backendName(), "cpu");
+  EXPECT_EQ(light.backendWarning(), "");
+  // Every point: the OpenCL device if it is a GPU or accelerator, else (PoCL on the CPU)
+  // the CPU backend; never a warning, since a device exists.
+  auto every = makeCore(Backend::Auto, pcl_mi::Feature::VarianceZ, 1, 0, source, target);
+  auto opencl = makeCore(Backend::OpenCL, pcl_mi::Feature::VarianceZ, 1, 0, source, target);
+  EXPECT_DOUBLE_EQ(every.evaluate(pose), opencl.evaluate(pose));
+  EXPECT_TRUE(every.backendName() == "cpu" || every.backendName() == opencl.backendName())
+      << every.backendName();
+  EXPECT_EQ(every.backendWarning(), "");
+}
+
 TEST(OpenClProfile, ReportsThePapersStages)
 {
   if (!requireOpenCl())

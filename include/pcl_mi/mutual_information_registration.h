@@ -159,8 +159,9 @@ public:
   }
 
   /** \brief Where the cost evaluations run: Backend::Cpu (default), Backend::OpenCL (an
-   * error at align() if no OpenCL device is usable) or Backend::Auto (OpenCL if possible,
-   * else the CPU with a PCL_WARN). All give the same result. */
+   * error at align() if no OpenCL device is usable) or Backend::Auto (OpenCL on a GPU or
+   * accelerator when every point enters each evaluation, where it is faster; otherwise the
+   * CPU; the CPU with a PCL_WARN if no OpenCL device is usable). All give the same result. */
   void
   setBackend(pcl_mi::Backend backend);
   pcl_mi::Backend

@@ -33,7 +33,10 @@ operator<<(std::ostream& os, Feature feature)
 enum class Backend {
   Cpu,    ///< plain C++ on the calling thread(s)
   OpenCL, ///< OpenCL kernels on a GPU or, through PoCL, on the CPU; an error if unavailable
-  Auto    ///< OpenCL when a device is available, else the CPU with a warning
+  /** OpenCL where it is faster: on a GPU or accelerator when every source point enters
+   * each evaluation (source_subdivision 0, e.g. Parameters::paper()); otherwise the CPU.
+   * With no usable OpenCL device the CPU, with a warning. */
+  Auto
 };
 
 /** \brief Parses a backend name as command lines spell it: "cpu", "opencl" or "auto".

@@ -167,6 +167,7 @@ struct OpenClDevice {
   cl_context context = nullptr;
   cl_program program = nullptr;
   std::string name;
+  bool offload = false; // a GPU or an accelerator (CL_DEVICE_TYPE), not the host's CPU
   double build_ms = 0.0;
 
   ~OpenClDevice()
@@ -197,6 +198,7 @@ openDevice(int platform_index, int device_index)
     cl_platform_id platform;
     cl_device_id device;
     bool gpu;
+    bool offload; // a GPU or an accelerator, not the host's CPU
   };
   std::vector<Candidate> candidates;
   for (cl_uint p = 0; p < num_platforms; ++p) {
@@ -215,7 +217,8 @@ openDevice(int platform_index, int device_index)
         continue;
       cl_device_type type = 0;
       clGetDeviceInfo(devices[d], CL_DEVICE_TYPE, sizeof(type), &type, nullptr);
-      candidates.push_back({platforms[p], devices[d], (type & CL_DEVICE_TYPE_GPU) != 0});
+      candidates.push_back({platforms[p], devices[d], (type & CL_DEVICE_TYPE_GPU) != 0,
+                            (type & (CL_DEVICE_TYPE_GPU | CL_DEVICE_TYPE_ACCELERATOR)) != 0});
     }
   }
   if (candidates.empty()) {
@@ -237,6 +240,7 @@ openDevice(int platform_index, int device_index)
   device->platform = chosen.platform;
   device->device = chosen.device;
   device->name = deviceString(chosen.device, CL_DEVICE_NAME);
+  device->offload = chosen.offload;
   if (deviceString(chosen.device, CL_DEVICE_EXTENSIONS).find("cl_khr_fp64") == std::string::npos)
     throw std::runtime_error("OpenCL: device '" + device->name +
                              "' lacks cl_khr_fp64, which the feature binning needs to match "
@@ -298,6 +302,12 @@ std::string
 openClDeviceName(const OpenClDevice& device)
 {
   return device.name;
+}
+
+bool
+openClDeviceIsOffload(const OpenClDevice& device)
+{
+  return device.offload;
 }
 
 namespace {

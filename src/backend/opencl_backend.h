@@ -26,6 +26,10 @@ openClDevice(int platform, int device, std::string& error);
 std::string
 openClDeviceName(const OpenClDevice& device);
 
+/** \brief True for a GPU or accelerator device, false for a CPU device (e.g. PoCL's). */
+bool
+openClDeviceIsOffload(const OpenClDevice& device);
+
 /** \brief A backend on \a device. Throws std::runtime_error on OpenCL errors. */
 std::unique_ptr<ScoringBackend>
 makeOpenClBackend(std::shared_ptr<OpenClDevice> device);
