@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -36,6 +37,24 @@ median(std::vector<double> v)
   std::sort(v.begin(), v.end());
   const std::size_t n = v.size();
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/** Reference poses of KITTI sequence \a sequence under \a root. \a kind "semantic":
+ * sequences/SS/poses.txt (SemanticKITTI's LiDAR-SLAM poses); "gt": poses/SS.txt (KITTI's
+ * GPS/INS ground truth, the odometry benchmark's own layout); "auto": the SemanticKITTI file
+ * where it exists, else the ground truth. Empty for any other kind. */
+inline std::string
+kittiPosesPath(const std::string& root, const std::string& sequence, const std::string& kind)
+{
+  const std::string semantic = root + "/sequences/" + sequence + "/poses.txt";
+  const std::string gt = root + "/poses/" + sequence + ".txt";
+  if (kind == "semantic")
+    return semantic;
+  if (kind == "gt")
+    return gt;
+  if (kind == "auto")
+    return std::ifstream(semantic).good() ? semantic : gt;
+  return "";
 }
 
 } // namespace apps

@@ -91,8 +91,8 @@ usage()
       "  -kitti DIR           KITTI odometry root (default data/kitti)\n"
       "  -pairs S:I:J,...     pairs as sequence:target frame:source frame (default\n"
       "                       00:0:9,02:0:6, the bundled pairs)\n"
-      "  -poses semantic|gt   reference poses: sequences/SS/poses.txt or poses/SS.txt\n"
-      "                       (default semantic)\n"
+      "  -poses semantic|gt|auto   reference poses: sequences/SS/poses.txt, poses/SS.txt,\n"
+      "                       or the first where it exists, else the second (default auto)\n"
       "  -backends LIST       cpu,opencl (default)\n"
       "  -configs LIST        default (pcl_mi's defaults), paper (Parameters::paper(): 1 m\n"
       "                       grid, every point in every evaluation) (default both)\n"
@@ -120,7 +120,7 @@ struct Row {
 int
 main(int argc, char** argv)
 {
-  std::string root = "data/kitti", pairs_arg = "00:0:9,02:0:6", poses_kind = "semantic";
+  std::string root = "data/kitti", pairs_arg = "00:0:9,02:0:6", poses_kind = "auto";
   std::string backends_arg = "cpu,opencl", configs_arg = "default,paper", device_arg;
   int repeat = 5, evaluations = 200, threads = 0;
   for (int i = 1; i < argc; ++i) {
@@ -160,9 +160,9 @@ main(int argc, char** argv)
     }
   }
   if (repeat < 2 || evaluations < 1 || threads < 0 ||
-      (poses_kind != "semantic" && poses_kind != "gt")) {
+      pcl_mi::apps::kittiPosesPath("", "", poses_kind).empty()) {
     std::fprintf(stderr, "pcl_mi_backend_bench: -repeat must be >= 2, -evaluations >= 1, "
-                         "-threads >= 0, -poses semantic or gt\n");
+                         "-threads >= 0, -poses semantic, gt or auto\n");
     return 1;
   }
   int platform = -1, device = -1;
@@ -191,9 +191,7 @@ main(int argc, char** argv)
           root + "/sequences/" + p.sequence + "/calib.txt", tr);
       if (error.empty())
         error = pcl_mi::kitti::loadPoses(
-            poses_kind == "gt" ? root + "/poses/" + p.sequence + ".txt"
-                               : root + "/sequences/" + p.sequence + "/poses.txt",
-            poses);
+            pcl_mi::apps::kittiPosesPath(root, p.sequence, poses_kind), poses);
       if (!error.empty()) {
         std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", error.c_str());
         return 1;

@@ -434,7 +434,9 @@ printHelp(const char* program)
       "                        to FILE; every row also runs backwards (swapped, inverse)\n"
       "  -sequences 00,02      sequences (default: 00,01,02,05,08)\n"
       "  -frames N             frames 0..N-1 of each sequence (default 10)\n"
-      "  -poses semantic|gt    sequences/SS/poses.txt or poses/SS.txt (default semantic)\n"
+      "  -poses semantic|gt|auto   reference poses: sequences/SS/poses.txt (SemanticKITTI),\n"
+      "                        poses/SS.txt (KITTI GPS/INS), or auto: the first where it\n"
+      "                        exists, else the second (default auto)\n"
       "  -distance MIN,MAX     pair translation range in m (default 1,10)\n"
       "  -max_yaw DEG          largest |yaw| of a pair (default 20)\n"
       "  -pairs SS:i:j,...     only these pairs (sequence SS, frames i < j)\n"
@@ -470,7 +472,7 @@ main(int argc, char** argv)
     printHelp(argv[0]);
     return argc < 2 ? 1 : 0;
   }
-  std::string root, sequences_arg = "00,01,02,05,08", poses_kind = "semantic";
+  std::string root, sequences_arg = "00,01,02,05,08", poses_kind = "auto";
   std::string methods_arg = "mi-varz,mi-n,gicp,ndt", directions = "both", csv_path, pairs_arg;
   std::string shard_arg;
   int frames = 10, stride = 1, seed = 1, repeat = 1;
@@ -479,6 +481,11 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-kitti", root);
   pcl::console::parse_argument(argc, argv, "-sequences", sequences_arg);
   pcl::console::parse_argument(argc, argv, "-poses", poses_kind);
+  if (pcl_mi::apps::kittiPosesPath("", "", poses_kind).empty()) {
+    print_error("pcl_mi_compare: -poses must be semantic, gt or auto, got '%s'\n",
+                poses_kind.c_str());
+    return 1;
+  }
   pcl::console::parse_argument(argc, argv, "-methods", methods_arg);
   pcl::console::parse_argument(argc, argv, "-directions", directions);
   pcl::console::parse_argument(argc, argv, "-csv", csv_path);
@@ -586,11 +593,13 @@ main(int argc, char** argv)
       std::vector<Eigen::Matrix4d> poses;
       std::string error =
           pcl_mi::kitti::loadCalibrationTr(root + "/sequences/" + seq + "/calib.txt", tr);
-      if (error.empty())
-        error = pcl_mi::kitti::loadPoses(poses_kind == "gt" ? root + "/poses/" + seq + ".txt"
-                                                            : root + "/sequences/" + seq +
-                                                                  "/poses.txt",
-                                         poses);
+      if (error.empty()) {
+        const std::string poses_path = pcl_mi::apps::kittiPosesPath(root, seq, poses_kind);
+        error = pcl_mi::kitti::loadPoses(poses_path, poses);
+        if (error.empty())
+          print_info("pcl_mi_compare: sequence %s: reference poses from %s\n", seq.c_str(),
+                     poses_path.c_str());
+      }
       if (!error.empty()) {
         print_error("pcl_mi_compare: %s\n", error.c_str());
         return 1;

@@ -29,3 +29,18 @@ grep -q ",backward," "$work/list.csv"
 # gicp-coarse (PCL GICP on 0.25 m voxel-filtered clouds) from half a metre off: converges.
 "$compare" -list "$work/list.txt" -methods gicp-coarse -perturb 0.5,2 -csv "$work/coarse.csv"
 awk -F, 'NR > 1 { n++; if ($10 >= 0.5 || $11 >= 2) bad++ } END { if (n != 2 || bad) exit 1 }' "$work/coarse.csv"
+
+# KITTI's own odometry layout (poses/SS.txt, no SemanticKITTI sequences/SS/poses.txt): the
+# default -poses auto falls back to the GPS/INS poses and says so; -poses semantic fails.
+mkdir -p "$work/kitti_gt/sequences/02" "$work/kitti_gt/poses"
+ln -s "$data/kitti/sequences/02/velodyne" "$work/kitti_gt/sequences/02/velodyne"
+cp "$data/kitti/sequences/02/calib.txt" "$work/kitti_gt/sequences/02/"
+cp "$data/kitti/poses/02.txt" "$work/kitti_gt/poses/"
+"$compare" -kitti "$work/kitti_gt" -sequences 02 -pairs 02:0:6 -methods mi-varz \
+  -csv "$work/gt.csv" | tee "$work/gt.txt"
+grep -q "reference poses from .*kitti_gt/poses/02.txt" "$work/gt.txt"
+awk -F, 'NR > 1 { n++; if ($10 >= 0.15 || $11 >= 0.5) bad++ } END { if (n != 2 || bad) exit 1 }' "$work/gt.csv"
+if "$compare" -kitti "$work/kitti_gt" -sequences 02 -pairs 02:0:6 -methods mi-varz \
+     -poses semantic > "$work/semantic.txt" 2>&1; then
+  echo "-poses semantic should fail without sequences/02/poses.txt"; exit 1
+fi
