@@ -273,3 +273,16 @@ __kernel void clear_touched(__global const uint* touched,
     moments[touched[i]] = zero;
   }
 }
+
+/* Zeroes the joint histogram and the counters for the next evaluation. A kernel of its own
+ * (one work-group), queued after clear_touched, which still reads counters[0]. */
+__kernel void reset_histogram(__global uint* joint,
+                              const uint joint_size,
+                              __global uint* counters,
+                              const uint num_counters)
+{
+  for (uint k = get_local_id(0); k < joint_size; k += get_local_size(0))
+    joint[k] = 0u;
+  for (uint k = get_local_id(0); k < num_counters; k += get_local_size(0))
+    counters[k] = 0u;
+}

@@ -369,11 +369,12 @@ public:
                                  std::make_pair(&reduce_overlap_, "reduce_overlap"),
                                  std::make_pair(&histogram_touched_, "histogram_touched"),
                                  std::make_pair(&histogram_target_only_, "histogram_target_only"),
-                                 std::make_pair(&clear_touched_, "clear_touched")}) {
+                                 std::make_pair(&clear_touched_, "clear_touched"),
+                                 std::make_pair(&reset_histogram_, "reset_histogram")}) {
       *kernel = clCreateKernel(device_->program, name, &error);
       check(error, name);
     }
-    counters_.allocate(device_->context, 4 * sizeof(cl_uint));
+    counters_.allocate(device_->context, kNumCounters * sizeof(cl_uint));
     overlap_.allocate(device_->context, 8 * sizeof(cl_int));
     addHost("queue and kernels", millisecondsSince(start));
     addHost("program build (shared)", device_->build_ms);
@@ -381,8 +382,13 @@ public:
 
   ~OpenClBackend() override
   {
+    if (queue_)
+      clFinish(queue_);
+    for (cl_event& e : pending_)
+      if (e)
+        clReleaseEvent(e);
     for (cl_kernel k : {map_samples_, reduce_overlap_, histogram_touched_,
-                        histogram_target_only_, clear_touched_})
+                        histogram_target_only_, clear_touched_, reset_histogram_})
       if (k)
         clReleaseKernel(k);
     if (queue_)
@@ -425,6 +431,13 @@ public:
     check(clEnqueueFillBuffer(queue_, moments_.get(), &zero, sizeof(zero), 0, moments_.bytes(),
                               0, nullptr, nullptr),
           "clearing the voxel moments");
+    // Each evaluation leaves these zeroed for the next one; the first needs them zero too.
+    check(clEnqueueFillBuffer(queue_, joint_.get(), &zero, sizeof(zero), 0, joint_.bytes(), 0,
+                              nullptr, nullptr),
+          "clearing the histogram");
+    check(clEnqueueFillBuffer(queue_, counters_.get(), &zero, sizeof(zero), 0, counters_.bytes(),
+                              0, nullptr, nullptr),
+          "clearing the counters");
     check(clFinish(queue_), "clFinish");
     addHost("copy to device", millisecondsSince(start));
   }
@@ -493,34 +506,29 @@ public:
     const cl_uint num_groups = static_cast<cl_uint>(groups_);
     const std::size_t side2 = static_cast<std::size_t>(num_bins) * num_bins;
 
-    cl_event events[8];
-    const cl_uint zero = 0;
-    check(clEnqueueFillBuffer(queue_, joint_.get(), &zero, sizeof(zero), 0, joint_.bytes(), 0,
-                              nullptr, &events[0]),
-          "clearing the histogram");
-    check(clEnqueueFillBuffer(queue_, counters_.get(), &zero, sizeof(zero), 0, counters_.bytes(),
-                              0, nullptr, &events[1]),
-          "clearing the counters");
-
+    // The histogram, the counters and the touched voxels' moments are zero here: the previous
+    // evaluation cleared them after its results were read (or setTarget() did), so the
+    // clearing runs while the host computes the entropies, not on the critical path.
+    cl_event events[6];
     setArgs(map_samples_, samples_.get(), num_samples, pose, dims, has_covariance, moments_.get(),
             touched_.get(), counters_.get(), group_boxes_.get(),
             Local{6 * kGroupSize * sizeof(cl_float)});
     const std::size_t sample_range = groups_ * kGroupSize;
     check(clEnqueueNDRangeKernel(queue_, map_samples_, 1, nullptr, &sample_range, &kGroupSize, 0,
-                                 nullptr, &events[2]),
+                                 nullptr, &events[0]),
           "map_samples");
 
     setArgs(reduce_overlap_, group_boxes_.get(), num_groups, num_samples, dims, overlap_.get(),
             Local{6 * kReduceGroupSize * sizeof(cl_float)});
     check(clEnqueueNDRangeKernel(queue_, reduce_overlap_, 1, nullptr, &kReduceGroupSize,
-                                 &kReduceGroupSize, 0, nullptr, &events[3]),
+                                 &kReduceGroupSize, 0, nullptr, &events[1]),
           "reduce_overlap");
 
     setArgs(histogram_touched_, touched_.get(), counters_.get(), moments_.get(), bins_.get(),
             feature, occupied_bins, max_value, spare_cell, joint_.get(),
             Local{side2 * sizeof(cl_uint)});
     check(clEnqueueNDRangeKernel(queue_, histogram_touched_, 1, nullptr, &sample_range,
-                                 &kGroupSize, 0, nullptr, &events[4]),
+                                 &kGroupSize, 0, nullptr, &events[2]),
           "histogram_touched");
 
     const std::size_t occupied_range = std::max(kGroupSize, roundUp(num_occupied, kGroupSize));
@@ -528,36 +536,39 @@ public:
             overlap_.get(), occupied_bins, joint_.get(),
             Local{static_cast<std::size_t>(num_bins) * sizeof(cl_uint)});
     check(clEnqueueNDRangeKernel(queue_, histogram_target_only_, 1, nullptr, &occupied_range,
-                                 &kGroupSize, 0, nullptr, &events[5]),
+                                 &kGroupSize, 0, nullptr, &events[3]),
           "histogram_target_only");
-
-    setArgs(clear_touched_, touched_.get(), counters_.get(), moments_.get());
-    check(clEnqueueNDRangeKernel(queue_, clear_touched_, 1, nullptr, &sample_range, &kGroupSize,
-                                 0, nullptr, &events[6]),
-          "clear_touched");
 
     // One read brings back the histogram; the overlap box follows on the same queue.
     cl_int overlap[8] = {0};
     check(clEnqueueReadBuffer(queue_, joint_.get(), CL_FALSE, 0, side2 * sizeof(cl_uint),
-                              histogram.counts.data(), 0, nullptr, &events[7]),
+                              histogram.counts.data(), 0, nullptr, &events[4]),
           "reading the histogram");
     check(clEnqueueReadBuffer(queue_, overlap_.get(), CL_TRUE, 0, 7 * sizeof(cl_int), overlap, 0,
-                              nullptr, nullptr),
+                              nullptr, &events[5]),
           "reading the overlap");
 
-    static const char* const kStage[8] = {"copy (clear)",      "copy (clear)",
-                                          "voxel mapping",     "find overlap",
+    static const char* const kStage[6] = {"voxel mapping",     "find overlap",
                                           "feature histogram", "feature histogram",
-                                          "clear moments",     "copy to host"};
-    for (int e = 0; e < 8; ++e) {
-      cl_ulong begin = 0, end = 0;
-      if (clGetEventProfilingInfo(events[e], CL_PROFILING_COMMAND_START, sizeof(begin), &begin,
-                                  nullptr) == CL_SUCCESS &&
-          clGetEventProfilingInfo(events[e], CL_PROFILING_COMMAND_END, sizeof(end), &end,
-                                  nullptr) == CL_SUCCESS)
-        addDevice(kStage[e], static_cast<double>(end - begin) * 1e-6);
-      clReleaseEvent(events[e]);
-    }
+                                          "copy to host",      "copy to host"};
+    for (int e = 0; e < 6; ++e)
+      accountDevice(kStage[e], events[e]);
+    // The previous evaluation's clearing finished before this one started (in-order queue).
+    accountPending();
+
+    // Clear for the next evaluation, off the critical path: flushed now, waited for by the
+    // next evaluation's first kernel.
+    setArgs(clear_touched_, touched_.get(), counters_.get(), moments_.get());
+    check(clEnqueueNDRangeKernel(queue_, clear_touched_, 1, nullptr, &sample_range, &kGroupSize,
+                                 0, nullptr, &pending_[0]),
+          "clear_touched");
+    const cl_uint joint_size = static_cast<cl_uint>(side2);
+    const cl_uint num_counters = kNumCounters;
+    setArgs(reset_histogram_, joint_.get(), joint_size, counters_.get(), num_counters);
+    check(clEnqueueNDRangeKernel(queue_, reset_histogram_, 1, nullptr, &kGroupSize, &kGroupSize,
+                                 0, nullptr, &pending_[1]),
+          "reset_histogram");
+    check(clFlush(queue_), "clFlush");
 
     if (!overlap[6]) {
       std::fill(histogram.counts.begin(), histogram.counts.end(), 0u);
@@ -637,10 +648,39 @@ private:
     add(std::string("host: ") + stage, ms);
   }
 
+  static constexpr cl_uint kNumCounters = 4;
+
+  /** Adds a finished command's device time to \a stage and releases its event. */
+  void
+  accountDevice(const char* stage, cl_event& event)
+  {
+    cl_ulong begin = 0, end = 0;
+    if (clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_START, sizeof(begin), &begin,
+                                nullptr) == CL_SUCCESS &&
+        clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_END, sizeof(end), &end,
+                                nullptr) == CL_SUCCESS)
+      addDevice(stage, static_cast<double>(end - begin) * 1e-6);
+    clReleaseEvent(event);
+    event = nullptr;
+  }
+
+  /** Accounts the previous evaluation's clearing (finished by now). */
+  void
+  accountPending()
+  {
+    if (pending_[0])
+      accountDevice("clear moments", pending_[0]);
+    if (pending_[1])
+      accountDevice("clear histogram", pending_[1]);
+  }
+
   std::shared_ptr<OpenClDevice> device_;
   cl_command_queue queue_ = nullptr;
   cl_kernel map_samples_ = nullptr, reduce_overlap_ = nullptr, histogram_touched_ = nullptr,
-            histogram_target_only_ = nullptr, clear_touched_ = nullptr;
+            histogram_target_only_ = nullptr, clear_touched_ = nullptr,
+            reset_histogram_ = nullptr;
+  /** The clearing queued after the last evaluation's read-back, for the profile. */
+  cl_event pending_[2] = {nullptr, nullptr};
   std::shared_ptr<const core::TargetGrid> target_;
   std::shared_ptr<const core::SourceSamples> source_;
   Buffer bins_, occupied_, moments_, joint_, counters_, overlap_, samples_, touched_,
