@@ -231,6 +231,8 @@ main(int argc, char** argv)
     print_error("pcl_mi_align: -feature must be varz or count, got '%s'\n", feature.c_str());
     return 1;
   }
+  // Device events cost time per evaluation, so only a profiled run takes them.
+  parameters.profile_device = pcl::console::find_switch(argc, argv, "-profile");
   const std::string invalid = parameters.validate();
   if (!invalid.empty()) {
     print_error("pcl_mi_align: %s\n", invalid.c_str());

@@ -320,7 +320,7 @@ struct RegistrationCore::Impl {
   {
 #ifdef PCL_MI_WITH_OPENCL
     if (use_opencl)
-      return backend::makeOpenClBackend(opencl_device);
+      return backend::makeOpenClBackend(opencl_device, parameters.profile_device);
 #endif
     return backend::makeCpuBackend();
   }
@@ -503,6 +503,7 @@ RegistrationCore::setParameters(const Parameters& parameters)
     impl_->source_dirty = true;
   if (old.backend != parameters.backend || old.opencl_platform != parameters.opencl_platform ||
       old.opencl_device != parameters.opencl_device ||
+      old.profile_device != parameters.profile_device ||
       (parameters.backend == Backend::Auto &&
        old.source_subdivision != parameters.source_subdivision)) {
     impl_->target_dirty = true;

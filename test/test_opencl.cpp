@@ -161,7 +161,15 @@ TEST(OpenClProfile, ReportsThePapersStages)
   reg.setInputSource(test_data::loadScan("00", 9));
   reg.setInputTarget(test_data::loadScan("00", 0));
   pcl::PointCloud<pcl::PointXYZ> aligned;
+  // Without device profiling (the default) only the host-side stages are timed.
   reg.align(aligned);
+  const Eigen::Matrix4f unprofiled = reg.getFinalTransformation();
+  for (const auto& s : reg.getBackendProfile())
+    EXPECT_EQ(s.name.rfind("device:", 0), std::string::npos) << s.name;
+
+  reg.setDeviceProfiling(true);
+  reg.align(aligned);
+  EXPECT_EQ(reg.getFinalTransformation(), unprofiled); // events time, they do not change
   const auto stages = reg.getBackendProfile();
   auto find = [&](const std::string& name) {
     for (const auto& s : stages)

@@ -164,6 +164,16 @@ public:
    * CPU; the CPU with a PCL_WARN if no OpenCL device is usable). All give the same result. */
   void
   setBackend(pcl_mi::Backend backend);
+
+  /** \brief Time every OpenCL command with device events for getBackendProfile()
+   * (pcl_mi::Parameters::profile_device; default false: it slows evaluations down). */
+  void
+  setDeviceProfiling(bool enabled);
+  bool
+  getDeviceProfiling() const
+  {
+    return core_.parameters().profile_device;
+  }
   pcl_mi::Backend
   getBackend() const
   {
@@ -171,7 +181,8 @@ public:
   }
 
   /** \brief Per-stage time of the backend since the target was set (see
-   * pcl_mi::RegistrationCore::backendProfile()). */
+   * pcl_mi::RegistrationCore::backendProfile()). OpenCL kernel times need
+   * setDeviceProfiling(true) first. */
   std::vector<pcl_mi::StageTiming>
   getBackendProfile() const
   {

@@ -129,6 +129,11 @@ struct Parameters {
    * else the first device. */
   int opencl_platform = -1;
   int opencl_device = -1;
+  /** Time every OpenCL command with device events, for the "device:" stages of
+   * RegistrationCore::backendProfile(). Off by default: event profiling cost about 50 us
+   * per evaluation on an NVIDIA H100 (a third of an evaluation). Host-side stages and the
+   * CPU backend are always timed. */
+  bool profile_device = false;
   /** Refinement after the MI search. MI finds the basin from far away but its optimum is
    * quantised by the voxel grid; the refinement moves the source samples onto the
    * target's local surfaces (mean and covariance per cube of edge refinement_resolution),

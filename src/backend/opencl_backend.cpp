@@ -357,12 +357,13 @@ private:
 
 class OpenClBackend final : public ScoringBackend {
 public:
-  explicit OpenClBackend(std::shared_ptr<OpenClDevice> device) : device_(std::move(device))
+  OpenClBackend(std::shared_ptr<OpenClDevice> device, bool profile_device)
+      : device_(std::move(device)), profiling_(profile_device)
   {
     const auto start = Clock::now();
     cl_int error = CL_SUCCESS;
-    queue_ = clCreateCommandQueue(device_->context, device_->device, CL_QUEUE_PROFILING_ENABLE,
-                                  &error);
+    queue_ = clCreateCommandQueue(device_->context, device_->device,
+                                  profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0, &error);
     check(error, "clCreateCommandQueue");
     // Kernel objects hold their arguments, so every backend has its own.
     for (auto& [kernel, name] : {std::make_pair(&map_samples_, "map_samples"),
@@ -509,26 +510,26 @@ public:
     // The histogram, the counters and the touched voxels' moments are zero here: the previous
     // evaluation cleared them after its results were read (or setTarget() did), so the
     // clearing runs while the host computes the entropies, not on the critical path.
-    cl_event events[6];
+    cl_event events[6] = {nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
     setArgs(map_samples_, samples_.get(), num_samples, pose, dims, has_covariance, moments_.get(),
             touched_.get(), counters_.get(), group_boxes_.get(),
             Local{6 * kGroupSize * sizeof(cl_float)});
     const std::size_t sample_range = groups_ * kGroupSize;
     check(clEnqueueNDRangeKernel(queue_, map_samples_, 1, nullptr, &sample_range, &kGroupSize, 0,
-                                 nullptr, &events[0]),
+                                 nullptr, event(events[0])),
           "map_samples");
 
     setArgs(reduce_overlap_, group_boxes_.get(), num_groups, num_samples, dims, overlap_.get(),
             Local{6 * kReduceGroupSize * sizeof(cl_float)});
     check(clEnqueueNDRangeKernel(queue_, reduce_overlap_, 1, nullptr, &kReduceGroupSize,
-                                 &kReduceGroupSize, 0, nullptr, &events[1]),
+                                 &kReduceGroupSize, 0, nullptr, event(events[1])),
           "reduce_overlap");
 
     setArgs(histogram_touched_, touched_.get(), counters_.get(), moments_.get(), bins_.get(),
             feature, occupied_bins, max_value, spare_cell, joint_.get(),
             Local{side2 * sizeof(cl_uint)});
     check(clEnqueueNDRangeKernel(queue_, histogram_touched_, 1, nullptr, &sample_range,
-                                 &kGroupSize, 0, nullptr, &events[2]),
+                                 &kGroupSize, 0, nullptr, event(events[2])),
           "histogram_touched");
 
     const std::size_t occupied_range = std::max(kGroupSize, roundUp(num_occupied, kGroupSize));
@@ -536,16 +537,16 @@ public:
             overlap_.get(), occupied_bins, joint_.get(),
             Local{static_cast<std::size_t>(num_bins) * sizeof(cl_uint)});
     check(clEnqueueNDRangeKernel(queue_, histogram_target_only_, 1, nullptr, &occupied_range,
-                                 &kGroupSize, 0, nullptr, &events[3]),
+                                 &kGroupSize, 0, nullptr, event(events[3])),
           "histogram_target_only");
 
     // One read brings back the histogram; the overlap box follows on the same queue.
     cl_int overlap[8] = {0};
     check(clEnqueueReadBuffer(queue_, joint_.get(), CL_FALSE, 0, side2 * sizeof(cl_uint),
-                              histogram.counts.data(), 0, nullptr, &events[4]),
+                              histogram.counts.data(), 0, nullptr, event(events[4])),
           "reading the histogram");
     check(clEnqueueReadBuffer(queue_, overlap_.get(), CL_TRUE, 0, 7 * sizeof(cl_int), overlap, 0,
-                              nullptr, &events[5]),
+                              nullptr, event(events[5])),
           "reading the overlap");
 
     static const char* const kStage[6] = {"voxel mapping",     "find overlap",
@@ -560,13 +561,13 @@ public:
     // next evaluation's first kernel.
     setArgs(clear_touched_, touched_.get(), counters_.get(), moments_.get());
     check(clEnqueueNDRangeKernel(queue_, clear_touched_, 1, nullptr, &sample_range, &kGroupSize,
-                                 0, nullptr, &pending_[0]),
+                                 0, nullptr, event(pending_[0])),
           "clear_touched");
     const cl_uint joint_size = static_cast<cl_uint>(side2);
     const cl_uint num_counters = kNumCounters;
     setArgs(reset_histogram_, joint_.get(), joint_size, counters_.get(), num_counters);
     check(clEnqueueNDRangeKernel(queue_, reset_histogram_, 1, nullptr, &kGroupSize, &kGroupSize,
-                                 0, nullptr, &pending_[1]),
+                                 0, nullptr, event(pending_[1])),
           "reset_histogram");
     check(clFlush(queue_), "clFlush");
 
@@ -650,10 +651,20 @@ private:
 
   static constexpr cl_uint kNumCounters = 4;
 
+  /** Where a command returns its event: \a slot when profiling, else nowhere (an event
+   * the driver need not create or time). */
+  cl_event*
+  event(cl_event& slot) const
+  {
+    return profiling_ ? &slot : nullptr;
+  }
+
   /** Adds a finished command's device time to \a stage and releases its event. */
   void
   accountDevice(const char* stage, cl_event& event)
   {
+    if (!event)
+      return;
     cl_ulong begin = 0, end = 0;
     if (clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_START, sizeof(begin), &begin,
                                 nullptr) == CL_SUCCESS &&
@@ -675,6 +686,7 @@ private:
   }
 
   std::shared_ptr<OpenClDevice> device_;
+  bool profiling_ = false;
   cl_command_queue queue_ = nullptr;
   cl_kernel map_samples_ = nullptr, reduce_overlap_ = nullptr, histogram_touched_ = nullptr,
             histogram_target_only_ = nullptr, clear_touched_ = nullptr,
@@ -692,9 +704,9 @@ private:
 } // namespace
 
 std::unique_ptr<ScoringBackend>
-makeOpenClBackend(std::shared_ptr<OpenClDevice> device)
+makeOpenClBackend(std::shared_ptr<OpenClDevice> device, bool profile_device)
 {
-  return std::make_unique<OpenClBackend>(std::move(device));
+  return std::make_unique<OpenClBackend>(std::move(device), profile_device);
 }
 
 } // namespace backend

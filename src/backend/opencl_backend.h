@@ -30,9 +30,10 @@ openClDeviceName(const OpenClDevice& device);
 bool
 openClDeviceIsOffload(const OpenClDevice& device);
 
-/** \brief A backend on \a device. Throws std::runtime_error on OpenCL errors. */
+/** \brief A backend on \a device; with \a profile_device every command is timed with
+ * device events. Throws std::runtime_error on OpenCL errors. */
 std::unique_ptr<ScoringBackend>
-makeOpenClBackend(std::shared_ptr<OpenClDevice> device);
+makeOpenClBackend(std::shared_ptr<OpenClDevice> device, bool profile_device);
 
 } // namespace backend
 } // namespace pcl_mi

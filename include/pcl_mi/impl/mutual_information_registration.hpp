@@ -233,6 +233,15 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setBackend(
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setDeviceProfiling(
+    bool enabled)
+{
+  updateParameters("setDeviceProfiling",
+                   [&](pcl_mi::Parameters& p) { p.profile_device = enabled; });
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRefinement(
     pcl_mi::Refinement refinement)
 {
