@@ -659,30 +659,29 @@ private:
     return profiling_ ? &slot : nullptr;
   }
 
-  /** Adds a finished command's device time to \a stage and releases its event. */
+  /** Adds a finished command's device time to \a stage and releases its event (none
+   * without profiling). */
   void
-  accountDevice(const char* stage, cl_event& event)
+  accountDevice(const char* stage, cl_event& finished)
   {
-    if (!event)
+    if (!finished)
       return;
     cl_ulong begin = 0, end = 0;
-    if (clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_START, sizeof(begin), &begin,
+    if (clGetEventProfilingInfo(finished, CL_PROFILING_COMMAND_START, sizeof(begin), &begin,
                                 nullptr) == CL_SUCCESS &&
-        clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_END, sizeof(end), &end,
+        clGetEventProfilingInfo(finished, CL_PROFILING_COMMAND_END, sizeof(end), &end,
                                 nullptr) == CL_SUCCESS)
       addDevice(stage, static_cast<double>(end - begin) * 1e-6);
-    clReleaseEvent(event);
-    event = nullptr;
+    clReleaseEvent(finished);
+    finished = nullptr;
   }
 
   /** Accounts the previous evaluation's clearing (finished by now). */
   void
   accountPending()
   {
-    if (pending_[0])
-      accountDevice("clear moments", pending_[0]);
-    if (pending_[1])
-      accountDevice("clear histogram", pending_[1]);
+    accountDevice("clear moments", pending_[0]);
+    accountDevice("clear histogram", pending_[1]);
   }
 
   std::shared_ptr<OpenClDevice> device_;
