@@ -22,6 +22,13 @@ namespace {
 constexpr int kKeyBits = 21;
 constexpr std::int64_t kKeyLimit = std::int64_t{1} << kKeyBits;
 
+/** Hash key of cell (x, y, z); each coordinate in [0, kKeyLimit). */
+std::uint64_t
+packCell(std::uint64_t x, std::uint64_t y, std::uint64_t z)
+{
+  return (z << (2 * kKeyBits)) | (y << kKeyBits) | x;
+}
+
 std::uint64_t
 mix(std::uint64_t key)
 {
@@ -142,17 +149,14 @@ neighbourhoodCovariance(const SourceSamples& cells,
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
   const Eigen::Vector3f c = cellCoordinates(centre.position, cells.grid_origin, inv_cell);
-  const Eigen::Vector3i cell(static_cast<int>(c.x()), static_cast<int>(c.y()), static_cast<int>(c.z()));
+  const Eigen::Vector3i cell = c.cast<int>();
   for (int dz = -1; dz <= 1; ++dz)
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         const Eigen::Vector3i n = cell + Eigen::Vector3i(dx, dy, dz);
         if ((n.array() < 0).any() || (n.array() >= static_cast<int>(kKeyLimit)).any())
           continue;
-        const std::uint64_t key = (static_cast<std::uint64_t>(n.z()) << (2 * kKeyBits)) |
-                                  (static_cast<std::uint64_t>(n.y()) << kKeyBits) |
-                                  static_cast<std::uint64_t>(n.x());
-        const int index = findSlot(cell_slots, cell_mask, key);
+        const int index = findSlot(cell_slots, cell_mask, packCell(n.x(), n.y(), n.z()));
         if (index < 0)
           continue;
         const SourceSample& o = cells.samples[static_cast<std::size_t>(index)];
@@ -175,10 +179,8 @@ TargetDistributions::keyOf(const Eigen::Vector3f& p, bool& inside) const
   inside = (c.array() >= 0.0f).all() && (c.array() < static_cast<float>(kKeyLimit)).all();
   if (!inside)
     return 0;
-  const auto x = static_cast<std::uint64_t>(c.x());
-  const auto y = static_cast<std::uint64_t>(c.y());
-  const auto z = static_cast<std::uint64_t>(c.z());
-  return (z << (2 * kKeyBits)) | (y << kKeyBits) | x;
+  return packCell(static_cast<std::uint64_t>(c.x()), static_cast<std::uint64_t>(c.y()),
+                  static_cast<std::uint64_t>(c.z()));
 }
 
 TargetDistributions::TargetDistributions(const PointList& points,
@@ -241,7 +243,8 @@ TargetDistributions::TargetDistributions(const PointList& points,
   mask_ = makeSlots(table_, distributions_.size());
   for (std::size_t i = 0; i < distributions_.size(); ++i) {
     bool inside = false;
-    insertSlot(table_, mask_, keyOf(distributions_[i].mean, inside), static_cast<std::int32_t>(i));
+    insertSlot(table_, mask_, keyOf(distributions_[i].mean, inside),
+               static_cast<std::int32_t>(i));
   }
 }
 
