@@ -291,13 +291,16 @@ struct RegistrationCore::Impl {
       return true;
     std::string why;
 #ifdef PCL_MI_WITH_OPENCL
+    // A CPU device is decided on before its kernels are built; no device at all falls
+    // through to openClDevice(), whose error becomes the warning.
+    std::string no_device;
+    if (parameters.backend == Backend::Auto &&
+        !backend::openClDeviceIsOffload(parameters.opencl_platform, parameters.opencl_device,
+                                        no_device) &&
+        no_device.empty())
+      return true;
     opencl_device =
         backend::openClDevice(parameters.opencl_platform, parameters.opencl_device, why);
-    if (opencl_device && parameters.backend == Backend::Auto &&
-        !backend::openClDeviceIsOffload(*opencl_device)) {
-      opencl_device.reset();
-      return true;
-    }
     if (opencl_device) {
       use_opencl = true;
       backend_name = "opencl (" + backend::openClDeviceName(*opencl_device) + ")";

@@ -167,7 +167,6 @@ struct OpenClDevice {
   cl_context context = nullptr;
   cl_program program = nullptr;
   std::string name;
-  bool offload = false; // a GPU or an accelerator (CL_DEVICE_TYPE), not the host's CPU
   double build_ms = 0.0;
 
   ~OpenClDevice()
@@ -181,8 +180,18 @@ struct OpenClDevice {
 
 namespace {
 
-std::shared_ptr<OpenClDevice>
-openDevice(int platform_index, int device_index)
+/** An enumerated device, before anything is created on it. */
+struct Candidate {
+  cl_platform_id platform;
+  cl_device_id device;
+  bool gpu;
+  bool offload; // a GPU or an accelerator, not the host's CPU
+};
+
+/** The device at (platform, device) index, or with -1/-1 the first GPU, else the first
+ * device. Enumeration only; throws std::runtime_error when there is none. */
+Candidate
+chooseDevice(int platform_index, int device_index)
 {
   cl_uint num_platforms = 0;
   cl_int status = clGetPlatformIDs(0, nullptr, &num_platforms);
@@ -194,12 +203,6 @@ openDevice(int platform_index, int device_index)
   check(clGetPlatformIDs(num_platforms, platforms.data(), nullptr), "clGetPlatformIDs");
 
   // Explicit indices pick one device; otherwise the first GPU, else the first device.
-  struct Candidate {
-    cl_platform_id platform;
-    cl_device_id device;
-    bool gpu;
-    bool offload; // a GPU or an accelerator, not the host's CPU
-  };
   std::vector<Candidate> candidates;
   for (cl_uint p = 0; p < num_platforms; ++p) {
     if (platform_index >= 0 && static_cast<cl_uint>(platform_index) != p)
@@ -235,12 +238,17 @@ openDevice(int platform_index, int device_index)
         chosen = c;
         break;
       }
+  return chosen;
+}
 
+std::shared_ptr<OpenClDevice>
+openDevice(int platform_index, int device_index)
+{
+  const Candidate chosen = chooseDevice(platform_index, device_index);
   auto device = std::make_shared<OpenClDevice>();
   device->platform = chosen.platform;
   device->device = chosen.device;
   device->name = deviceString(chosen.device, CL_DEVICE_NAME);
-  device->offload = chosen.offload;
   if (deviceString(chosen.device, CL_DEVICE_EXTENSIONS).find("cl_khr_fp64") == std::string::npos)
     throw std::runtime_error("OpenCL: device '" + device->name +
                              "' lacks cl_khr_fp64, which the feature binning needs to match "
@@ -305,9 +313,15 @@ openClDeviceName(const OpenClDevice& device)
 }
 
 bool
-openClDeviceIsOffload(const OpenClDevice& device)
+openClDeviceIsOffload(int platform, int device, std::string& error)
 {
-  return device.offload;
+  try {
+    return chooseDevice(platform, device).offload;
+  }
+  catch (const std::exception& e) {
+    error = e.what();
+    return false;
+  }
 }
 
 namespace {

@@ -26,9 +26,11 @@ openClDevice(int platform, int device, std::string& error);
 std::string
 openClDeviceName(const OpenClDevice& device);
 
-/** \brief True for a GPU or accelerator device, false for a CPU device (e.g. PoCL's). */
+/** \brief True when the device openClDevice(platform, device) would open is a GPU or
+ * accelerator, false for a CPU device (e.g. PoCL's) or, with \a error, for none. Only
+ * enumerates devices: no context, no kernel build. */
 bool
-openClDeviceIsOffload(const OpenClDevice& device);
+openClDeviceIsOffload(int platform, int device, std::string& error);
 
 /** \brief A backend on \a device; with \a profile_device every command is timed with
  * device events. Throws std::runtime_error on OpenCL errors. */
