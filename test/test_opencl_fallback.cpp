@@ -1,8 +1,7 @@
 /*
  * Run with OCL_ICD_VENDORS pointing at an empty directory (see test/CMakeLists.txt): no
  * OpenCL platform exists. Auto must use the CPU and still align (warning where it wanted a
- * device); OpenCL requested
- * explicitly must fail with a clear error, not crash.
+ * device); OpenCL requested explicitly must fail with a clear error, not crash.
  */
 #include "test_data.h"
 

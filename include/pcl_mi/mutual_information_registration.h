@@ -164,6 +164,11 @@ public:
    * CPU; the CPU with a PCL_WARN if no OpenCL device is usable). All give the same result. */
   void
   setBackend(pcl_mi::Backend backend);
+  pcl_mi::Backend
+  getBackend() const
+  {
+    return core_.parameters().backend;
+  }
 
   /** \brief Time every OpenCL command with device events for getBackendProfile()
    * (pcl_mi::Parameters::profile_device; default false: it slows evaluations down). */
@@ -173,11 +178,6 @@ public:
   getDeviceProfiling() const
   {
     return core_.parameters().profile_device;
-  }
-  pcl_mi::Backend
-  getBackend() const
-  {
-    return core_.parameters().backend;
   }
 
   /** \brief Per-stage time of the backend since the target was set (see
