@@ -33,6 +33,9 @@ namespace {
 void
 printHelp(const char* program)
 {
+  // The defaults shown are the library's own, so the help cannot drift from them.
+  const pcl_mi::Parameters d;
+  const double deg = 180.0 / M_PI;
   print_info(
       "Aligns SOURCE onto TARGET by maximising the mutual information of voxel features.\n"
       "\n"
@@ -43,13 +46,21 @@ printHelp(const char* program)
       "  -guess_file FILE      initial guess as a 4x4 (or 3x4) matrix in a text file\n"
       "  -reference FILE       reference source-to-target transform (4x4 or 3x4 text):\n"
       "                        prints the error of the result against it\n"
-      "  -resolution R         voxel size in metres (default 1)\n"
+      "  -resolution R         voxel size in the clouds' units (default %g; metres for\n"
+      "                        KITTI). The refinement cube and the translation tolerance\n"
+      "                        follow it; the steps do not\n"
+      "  -steps tx,ty,tz,roll,pitch,yaw  initial simplex: how far the guess may be off,\n"
+      "                        in the clouds' units and degrees; 0 pins a parameter\n"
+      "                        (default %g,%g,%g,%.3g,%.3g,%.3g). Clouds in millimetres\n"
+      "                        need steps in millimetres\n"
       "  -feature varz|count   voxel feature: variance of z or point count (default varz)\n"
-      "  -max_iterations N     Nelder-Mead iteration cap over all restarts (default 1000)\n"
-      "  -levels N             coarse-to-fine pyramid levels (default 3; 1 = single grid)\n"
-      "  -subdivision N        source samples per voxel edge (default 4; 0 = every point)\n"
+      "  -max_iterations N     Nelder-Mead iteration cap over all restarts (default %d)\n"
+      "  -levels N             coarse-to-fine pyramid levels (default %d; 1 = single grid)\n"
+      "  -subdivision N        source samples per voxel edge (default %d; 0 = every point)\n"
       "  -refinement on|off    refine the MI optimum on the target's distributions\n"
       "                        (default on)\n"
+      "  -refinement_resolution R  cube edge of the refinement's distributions (default\n"
+      "                        0: 0.7 * resolution)\n"
       "  -paper                the paper's exact method: one simplex, one grid, every\n"
       "                        point, no mirrored start, restarts or refinement\n"
       "  -backend cpu|opencl|auto   where the cost evaluations run (default cpu; auto:\n"
@@ -66,7 +77,9 @@ printHelp(const char* program)
       "  -screenshot FILE.png  save that side-by-side view as an image (works under Xvfb:\n"
       "                        xvfb-run -a pcl_mi_align ... -screenshot view.png)\n"
       "  -h                    this help\n",
-      program);
+      program, d.resolution, d.simplex_steps[0], d.simplex_steps[1], d.simplex_steps[2],
+      d.simplex_steps[3] * deg, d.simplex_steps[4] * deg, d.simplex_steps[5] * deg,
+      d.max_iterations, d.pyramid_levels, d.source_subdivision);
 }
 
 Eigen::Matrix4d
@@ -199,6 +212,18 @@ main(int argc, char** argv)
   parameters.max_iterations = max_iterations;
   pcl::console::parse_argument(argc, argv, "-levels", parameters.pyramid_levels);
   pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
+  pcl::console::parse_argument(argc, argv, "-refinement_resolution",
+                               parameters.refinement_resolution);
+  std::vector<double> steps;
+  if (pcl::console::parse_x_arguments(argc, argv, "-steps", steps) > 0) {
+    if (steps.size() != 6) {
+      print_error("pcl_mi_align: -steps takes 6 comma-separated values, got %zu\n",
+                  steps.size());
+      return 1;
+    }
+    for (int i = 0; i < 6; ++i)
+      parameters.simplex_steps[i] = i < 3 ? steps[i] : steps[i] * M_PI / 180.0;
+  }
   std::string backend = "cpu";
   pcl::console::parse_argument(argc, argv, "-backend", backend);
   if (!pcl_mi::parseBackend(backend, parameters.backend)) {
@@ -245,7 +270,7 @@ main(int argc, char** argv)
   print_info("Target: ");
   print_value("%s (%zu points)\n", target_path.c_str(), target->size());
   print_info("MI-%s, resolution ", feature == "varz" ? "VARZ" : "N");
-  print_value("%g m\n", resolution);
+  print_value("%g\n", resolution);
 
   const auto start = std::chrono::steady_clock::now();
   reg.setInputSource(source);

@@ -192,6 +192,8 @@ yawDegrees(const Eigen::Matrix4d& t)
 /** Overrides of the MI defaults from the command line (negative: keep the default). */
 struct MiOverrides {
   int subdivision = -1, levels = -1, restarts = -1;
+  double resolution = -1.0;
+  std::vector<double> steps; ///< tx, ty, tz, roll, pitch, yaw (the clouds' units, degrees)
   pcl_mi::Backend backend = pcl_mi::Backend::Cpu;
 } mi_overrides;
 
@@ -211,6 +213,11 @@ makeMethod(const std::string& name)
       return nullptr;
     pcl_mi::Parameters p = paper ? pcl_mi::Parameters::paper() : pcl_mi::Parameters();
     p.feature = feature == "n" ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
+    if (mi_overrides.resolution > 0.0)
+      p.resolution = mi_overrides.resolution;
+    for (std::size_t i = 0; i < mi_overrides.steps.size(); ++i)
+      p.simplex_steps[static_cast<Eigen::Index>(i)] =
+          i < 3 ? mi_overrides.steps[i] : mi_overrides.steps[i] * M_PI / 180.0;
     if (mi_overrides.subdivision >= 0)
       p.source_subdivision = mi_overrides.subdivision;
     if (mi_overrides.levels >= 0)
@@ -458,7 +465,9 @@ printHelp(const char* program)
       "  -csv FILE             one row per (pair, method)\n"
       "  -shard K/N            run only pairs K, K+N, K+2N, ... (K in 1..N), for GNU parallel\n"
       "                        or Slurm arrays; combine the shards' CSVs with -merge\n"
-      "  -subdivision N, -levels N, -restarts N   override MI parameters\n",
+      "  -resolution R, -subdivision N, -levels N, -restarts N   override MI parameters\n"
+      "                        (the refinement cube and tolerance follow -resolution)\n"
+      "  -steps tx,ty,tz,roll,pitch,yaw   MI's initial simplex (the clouds' units, deg)\n",
       program,
       program);
 }
@@ -496,6 +505,16 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-seed", seed);
   pcl::console::parse_argument(argc, argv, "-repeat", repeat);
   pcl::console::parse_argument(argc, argv, "-max_yaw", max_yaw);
+  if (pcl::console::parse_argument(argc, argv, "-resolution", mi_overrides.resolution) >= 0 &&
+      !(mi_overrides.resolution > 0.0 && std::isfinite(mi_overrides.resolution))) {
+    print_error("pcl_mi_compare: -resolution must be positive and finite\n");
+    return 1;
+  }
+  if (pcl::console::parse_x_arguments(argc, argv, "-steps", mi_overrides.steps) >= 0 &&
+      mi_overrides.steps.size() != 6) {
+    print_error("pcl_mi_compare: -steps takes 6 comma-separated values\n");
+    return 1;
+  }
   pcl::console::parse_argument(argc, argv, "-subdivision", mi_overrides.subdivision);
   pcl::console::parse_argument(argc, argv, "-levels", mi_overrides.levels);
   pcl::console::parse_argument(argc, argv, "-restarts", mi_overrides.restarts);

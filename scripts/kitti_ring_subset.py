@@ -8,6 +8,11 @@ scan, K = 4 a 16-ring one (about 1.7 deg between rings, close to a VLP-16's 2 de
 
 usage: kitti_ring_subset.py KITTI_ROOT K OUT_DIR [--sequences 00,01,02,05,08]
                             [--distance 1,10] [--max-yaw 20] [--poses semantic|gt]
+                            [--scale S]
+
+--scale S multiplies every coordinate and the reference translations by S (e.g. 1000 for
+millimetres, 0.1 for a scene the size of a room), to check that an alignment at resolution
+S (and simplex steps times S) is the same as at 1 m; --distance stays in metres before scaling.
 
 The list holds every pair i < j of the stored frames whose motion is within --distance and
 --max-yaw, with the reference source-to-target transform T_i_j = inv(Tv_i) * Tv_j,
@@ -58,9 +63,12 @@ def main():
     parser.add_argument("--distance", default="1,10")
     parser.add_argument("--max-yaw", type=float, default=20.0)
     parser.add_argument("--poses", choices=["semantic", "gt"], default="semantic")
+    parser.add_argument("--scale", type=float, default=1.0)
     args = parser.parse_args()
     if args.every < 1:
         sys.exit("kitti_ring_subset: K must be >= 1")
+    if not (args.scale > 0 and math.isfinite(args.scale)):
+        sys.exit("kitti_ring_subset: --scale must be positive and finite")
     dmin, dmax = (float(v) for v in args.distance.split(","))
     os.makedirs(args.out, exist_ok=True)
 
@@ -80,6 +88,8 @@ def main():
         for k in frames:
             scan = np.fromfile(os.path.join(velodyne, f"{k:06d}.bin"), dtype=np.float32)
             subset = keep_rings(scan.reshape(-1, 4), args.every)
+            if args.scale != 1.0:
+                subset[:, :3] *= np.float32(args.scale)
             subset.tofile(os.path.join(args.out, f"{seq}_{k:06d}.bin"))
             kept += len(subset)
         for a, i in enumerate(frames):
@@ -87,6 +97,7 @@ def main():
                 t = np.linalg.inv(velo[i]) @ velo[j]
                 yaw = math.degrees(math.atan2(t[1, 0], t[0, 0]))
                 if dmin <= np.linalg.norm(t[:3, 3]) <= dmax and abs(yaw) <= args.max_yaw:
+                    t[:3, 3] *= args.scale
                     numbers = " ".join(f"{v:.9g}" for v in t[:3, :].reshape(-1))
                     rows.append(f"{seq}_{j:06d}.bin {seq}_{i:06d}.bin {numbers}")
         print(f"sequence {seq}: {len(frames)} scans, {kept // max(1, len(frames))} points "

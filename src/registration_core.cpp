@@ -100,8 +100,12 @@ Parameters::validate() const
     s << "at least one simplex step must be non-zero";
   else if (max_iterations < 1)
     s << "maximum iterations must be at least 1, got " << max_iterations;
-  else if (!(translation_tolerance > 0.0) || !(rotation_tolerance > 0.0))
-    s << "tolerances must be positive";
+  else if (!(translation_tolerance >= 0.0) || !std::isfinite(translation_tolerance))
+    s << "translation tolerance must be finite and not negative (0 = follow the resolution), "
+         "got "
+      << translation_tolerance;
+  else if (!(rotation_tolerance > 0.0) || !std::isfinite(rotation_tolerance))
+    s << "rotation tolerance must be positive and finite, got " << rotation_tolerance;
   else if (source_subdivision < 0 || source_subdivision > 64)
     s << "source subdivision must be 0..64, got " << source_subdivision;
   else if (num_threads < 1)
@@ -114,8 +118,10 @@ Parameters::validate() const
     s << "unknown backend " << static_cast<int>(backend);
   else if (refinement != Refinement::None && refinement != Refinement::PointToDistribution)
     s << "unknown refinement " << static_cast<int>(refinement);
-  else if (!(refinement_resolution > 0.0) || !std::isfinite(refinement_resolution))
-    s << "refinement resolution must be positive and finite, got " << refinement_resolution;
+  else if (!(refinement_resolution >= 0.0) || !std::isfinite(refinement_resolution))
+    s << "refinement resolution must be finite and not negative (0 = follow the resolution), "
+         "got "
+      << refinement_resolution;
   else if (refinement_max_iterations < 1)
     s << "refinement iterations must be at least 1, got " << refinement_max_iterations;
   else if (!(restart_scale > 0.0) || !std::isfinite(restart_scale))
@@ -249,7 +255,7 @@ struct RegistrationCore::Impl {
       tasks.emplace_back([this] {
         distributions = std::make_unique<core::TargetDistributions>(
             target.points,
-            parameters.refinement_resolution,
+            parameters.effectiveRefinementResolution(),
             kRefinementMinimumPoints,
             kRefinementNoiseFraction * parameters.resolution);
       });
@@ -513,7 +519,7 @@ RegistrationCore::setParameters(const Parameters& parameters)
     impl_->source_dirty = true;
   }
   if (old.refinement != parameters.refinement ||
-      old.refinement_resolution != parameters.refinement_resolution) {
+      old.effectiveRefinementResolution() != parameters.effectiveRefinementResolution()) {
     impl_->target_dirty = true;
     impl_->source_dirty = true;
   }
@@ -682,7 +688,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   Eigen::VectorXd steps(n), tolerance(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     steps[i] = p.simplex_steps[active[i]];
-    tolerance[i] = active[i] < 3 ? p.translation_tolerance : p.rotation_tolerance;
+    tolerance[i] = active[i] < 3 ? p.effectiveTranslationTolerance() : p.rotation_tolerance;
   }
 
   /** One Nelder-Mead search on one level and backend, capped at \a cap iterations. */

@@ -207,8 +207,29 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
 
   reg.setSimplexSteps(Eigen::Matrix<double, 6, 1>::Zero());
   EXPECT_EQ(reg.getSimplexSteps()[0], 8.0);
+  // Lengths tied to the grid follow the resolution (0.5 here) until they are set; 0
+  // returns them to following it.
+  EXPECT_EQ(reg.getTranslationTolerance(), 0.0025);
+  reg.setTranslationTolerance(-0.01);
+  EXPECT_EQ(reg.getTranslationTolerance(), 0.0025);
+  reg.setTranslationTolerance(std::numeric_limits<double>::infinity());
+  EXPECT_EQ(reg.getTranslationTolerance(), 0.0025);
+  reg.setTranslationTolerance(0.01);
+  EXPECT_EQ(reg.getTranslationTolerance(), 0.01);
   reg.setTranslationTolerance(0.0);
-  EXPECT_EQ(reg.getTranslationTolerance(), 0.005);
+  EXPECT_EQ(reg.getTranslationTolerance(), 0.0025);
+  EXPECT_EQ(reg.getRefinementResolution(), 0.35);
+  reg.setRefinementResolution(-0.7);
+  EXPECT_EQ(reg.getRefinementResolution(), 0.35);
+  reg.setRefinementResolution(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(reg.getRefinementResolution(), 0.35);
+  reg.setRefinementResolution(0.9);
+  EXPECT_EQ(reg.getRefinementResolution(), 0.9);
+  reg.setResolution(2.0); // an explicit value stays
+  EXPECT_EQ(reg.getRefinementResolution(), 0.9);
+  reg.setRefinementResolution(0.0);
+  EXPECT_EQ(reg.getRefinementResolution(), 1.4);
+  reg.setResolution(0.5);
   reg.setNumberOfRestarts(-1);
   EXPECT_EQ(reg.getNumberOfRestarts(), pcl_mi::Parameters().restarts);
 

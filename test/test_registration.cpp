@@ -160,6 +160,47 @@ TEST(Registration, FarFromOriginLikeUtm)
   }
 }
 
+TEST(Registration, SameRelativeAccuracyAtOtherScales)
+{
+  // The pair shrunk to a room's size (x0.1) and in millimetres (x1000), with the resolution
+  // and the simplex steps scaled alike: everything else tied to the grid follows the
+  // resolution, so the alignment is the same up to the scale. (With a fixed 0.7 m
+  // refinement cube the x0.1 pair ended 0.059 m = 0.59 scaled metres off.)
+  auto source = test_data::loadScan("00", 9);
+  auto target = test_data::loadScan("00", 0);
+  const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
+  auto alignAtScale = [&](double scale) {
+    Cloud::Ptr scaled_source(new Cloud), scaled_target(new Cloud);
+    const Eigen::Matrix4f s = (Eigen::Vector4f() << Eigen::Vector3f::Constant(
+                                   static_cast<float>(scale)), 1.0f).finished().asDiagonal();
+    pcl::transformPointCloud(*source, *scaled_source, s);
+    pcl::transformPointCloud(*target, *scaled_target, s);
+    pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+    reg.setResolution(scale);
+    Eigen::Matrix<double, 6, 1> steps = reg.getSimplexSteps();
+    steps.head<3>() *= scale;
+    reg.setSimplexSteps(steps);
+    reg.setInputSource(scaled_source);
+    reg.setInputTarget(scaled_target);
+    Cloud aligned;
+    reg.align(aligned);
+    EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+    Eigen::Matrix4d t = reg.getFinalTransformation().cast<double>();
+    t.topRightCorner<3, 1>() /= scale; // back to metres
+    return t;
+  };
+  const Eigen::Matrix4d metres = alignAtScale(1.0);
+  EXPECT_POSE_NEAR(metres, reference);
+  for (const double scale : {0.1, 1000.0}) {
+    SCOPED_TRACE(testing::Message() << "scale " << scale);
+    const Eigen::Matrix4d t = alignAtScale(scale);
+    EXPECT_POSE_NEAR(t, reference);
+    const auto from_metres = pcl_mi::io::poseError(t, metres);
+    EXPECT_LT(from_metres.translation, 0.01);
+    EXPECT_LT(from_metres.rotation_deg, 0.05);
+  }
+}
+
 TEST(Registration, CostPeaksAtTheReference)
 {
   auto source = test_data::loadScan("02", 6);

@@ -138,14 +138,15 @@ public:
     return core_.parameters().restarts;
   }
 
-  /** \brief Convergence: every simplex vertex within \a tolerance metres of the best one in
-   * each translation parameter (default 0.005 m). */
+  /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of
+   * the best one in each translation parameter; 0 (default) = 0.005 * resolution. */
   void
   setTranslationTolerance(double tolerance);
+  /** \brief The translation tolerance in use (0.005 m at the default 1 m resolution). */
   double
   getTranslationTolerance() const
   {
-    return core_.parameters().translation_tolerance;
+    return core_.parameters().effectiveTranslationTolerance();
   }
 
   /** \brief Convergence: every simplex vertex within \a tolerance radians of the best one in
@@ -196,6 +197,17 @@ public:
   getRefinement() const
   {
     return core_.parameters().refinement;
+  }
+
+  /** \brief Cube edge of the refinement's target distributions (the clouds' units);
+   * 0 (default) = 0.7 * resolution. */
+  void
+  setRefinementResolution(double resolution);
+  /** \brief The refinement cube edge in use (0.7 m at the default 1 m resolution). */
+  double
+  getRefinementResolution() const
+  {
+    return core_.parameters().effectiveRefinementResolution();
   }
 
   /** \brief Replaces all parameters at once; refused (PCL_ERROR, old values kept) if any is

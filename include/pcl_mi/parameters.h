@@ -84,7 +84,9 @@ struct FeatureBinning {
  * source_subdivision, refinement); Parameters::paper() turns all of that off.
  */
 struct Parameters {
-  /** Voxel edge length R_v in the clouds' units (metres). */
+  /** Voxel edge length R_v in the clouds' units (metres for KITTI). The refinement's cube
+   * edge and the translation tolerance follow it unless set (see their fields); the
+   * simplex steps do not: they say how far off the guess may be. */
   double resolution = 1.0;
   /** Feature used for the histograms. */
   Feature feature = Feature::VarianceZ;
@@ -95,7 +97,10 @@ struct Parameters {
    * (a 16-beam scanner fills voxels far less densely than a 64-beam one; with the paper's
    * fixed 64 points most of its voxels share the lowest bins). */
   FeatureBinning point_count_binning{16, 64.0, 0.75};
-  /** Initial simplex step per parameter [tx, ty, tz (m), roll, pitch, yaw (rad)]. */
+  /** Initial simplex step per parameter [tx, ty, tz, roll, pitch, yaw (rad)], translations
+   * in the clouds' units: the paper's metres. They describe how far the guess may be off,
+   * not the scene, so they do not follow the resolution: give clouds in other units (e.g.
+   * millimetres) steps in those units. */
   Eigen::Matrix<double, 6, 1> simplex_steps =
       (Eigen::Matrix<double, 6, 1>() << 8.0, 8.0, 1.0, 0.1, 0.1, 0.8).finished();
   /** Also start a second simplex with all steps negated and keep the better result. The
@@ -140,19 +145,23 @@ struct Parameters {
    * a smooth cost that converges in a few Gauss-Newton steps from within the basin. A
    * refinement that moves the pose by more than resolution or 5 degrees is discarded. */
   Refinement refinement = Refinement::PointToDistribution;
-  /** Cube edge (m) of the refinement's target distributions. The refinement moves the
+  /** Cube edge of the refinement's target distributions, in the clouds' units; 0 (the
+   * default) = 0.7 * resolution (effectiveRefinementResolution()). The refinement moves the
    * finest level's source samples (cubes of resolution / source_subdivision); a cube edge
    * that is not a multiple of theirs keeps the two grids from aliasing (measured on KITTI:
-   * 0.7 m gives 0.025 m mean error with 0.5 m samples, 0.5 m gives 0.05 m). */
-  double refinement_resolution = 0.7;
+   * 0.7 m gives 0.025 m mean error with 0.5 m samples, 0.5 m gives 0.05 m). Following the
+   * resolution keeps the method scale-free: the same scans in millimetres, or shrunk to a
+   * room's size, align with the same relative accuracy. */
+  double refinement_resolution = 0.0;
   /** Most Gauss-Newton iterations of the refinement. */
   int refinement_max_iterations = 20;
   /** Maximum number of Nelder-Mead iterations, summed over all starts and restarts. */
   int max_iterations = 1000;
   /** The simplex on the finest level has converged once every vertex lies within this
-   * distance (m) of the best vertex in each translation parameter (coarser levels l use
-   * 30 * 2^l times the tolerances: they only have to land in the next level's basin) ... */
-  double translation_tolerance = 0.005;
+   * distance of the best vertex in each translation parameter, in the clouds' units; 0 (the
+   * default) = 0.005 * resolution (effectiveTranslationTolerance()). Coarser levels l use
+   * 30 * 2^l times the tolerances: they only have to land in the next level's basin ... */
+  double translation_tolerance = 0.0;
   /** ... and within this angle (rad) in each rotation parameter. */
   double rotation_tolerance = 0.0005;
 
@@ -161,6 +170,22 @@ struct Parameters {
    * or refinement. */
   static Parameters
   paper();
+
+  /** \brief Cube edge the refinement uses: refinement_resolution, or 0.7 * resolution
+   * when that is 0. */
+  double
+  effectiveRefinementResolution() const
+  {
+    return refinement_resolution > 0.0 ? refinement_resolution : 0.7 * resolution;
+  }
+
+  /** \brief Translation tolerance the search uses: translation_tolerance, or
+   * 0.005 * resolution when that is 0. */
+  double
+  effectiveTranslationTolerance() const
+  {
+    return translation_tolerance > 0.0 ? translation_tolerance : 0.005 * resolution;
+  }
 
   /** \brief The binning of the selected feature. */
   const FeatureBinning&

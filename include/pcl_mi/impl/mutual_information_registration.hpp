@@ -250,6 +250,15 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRefinement(
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRefinementResolution(
+    double resolution)
+{
+  updateParameters("setRefinementResolution",
+                   [&](pcl_mi::Parameters& p) { p.refinement_resolution = resolution; });
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setTranslationTolerance(
     double tolerance)
 {
