@@ -2,7 +2,8 @@
 # End-to-end: scripts/kitti_ring_subset.py on the bundled scans (every 2nd ring, a 32-ring
 # sensor), then pcl_mi_compare -list on what it wrote. Asserts that about half the points
 # are kept, that the list holds the two bundled pairs with their reference poses, and that
-# MI-VARZ aligns all four alignments within 0.15 m / 0.5 deg.
+# MI-VARZ aligns all four alignments within 0.15 m / 0.5 deg, and that --scale scales the
+# points and the reference translations only.
 # Usage: run_ring_subset_test.sh SCRIPT COMPARE_BINARY DATA_DIR WORK_DIR
 set -euo pipefail
 script=$1 compare=$2 data=$3 work=$4
@@ -19,3 +20,17 @@ awk -F, 'NR > 1 { n++; if ($10 >= 0.15 || $11 >= 0.5) { print "out of bound: " $
 # K = 1 keeps every point: the scans are byte-identical to the originals.
 /usr/bin/python3 "$script" "$data/kitti" 1 "$work/all" --sequences 00 > /dev/null
 cmp "$work/all/00_000009.bin" "$data/kitti/sequences/00/velodyne/000009.bin"
+# --scale multiplies the coordinates and the reference translations, nothing else.
+/usr/bin/python3 "$script" "$data/kitti" 1 "$work/mm" --sequences 00 --scale 1000 > /dev/null
+/usr/bin/python3 - "$work/all" "$work/mm" <<'PY'
+import sys
+import numpy as np
+metres, mm = sys.argv[1], sys.argv[2]
+a = np.fromfile(f"{metres}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+b = np.fromfile(f"{mm}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+assert np.allclose(b[:, :3], 1000 * a[:, :3], rtol=1e-6) and np.array_equal(b[:, 3], a[:, 3])
+ra = np.array(open(f"{metres}/list.txt").read().split()[2:14], float).reshape(3, 4)
+rb = np.array(open(f"{mm}/list.txt").read().split()[2:14], float).reshape(3, 4)
+assert np.allclose(rb[:, :3], ra[:, :3]) and np.allclose(rb[:, 3], 1000 * ra[:, 3])
+print("--scale 1000: points and reference translations x1000, rotations unchanged")
+PY
