@@ -110,6 +110,8 @@ Parameters::validate() const
     s << "source subdivision must be 0..64, got " << source_subdivision;
   else if (num_threads < 1)
     s << "number of threads must be at least 1, got " << num_threads;
+  else if (heading_starts < 1 || heading_starts > 360)
+    s << "heading starts must be 1..360, got " << heading_starts;
   else if (pyramid_levels < 1 || pyramid_levels > 8)
     s << "pyramid levels must be 1..8, got " << pyramid_levels;
   else if (restarts < 0)
@@ -748,24 +750,33 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   // symmetric about the guess: backward motion is found as well as forward motion. The two
   // starts are independent and split the iteration budget in fixed shares, so running them
   // on two threads gives the same result as running them one after the other.
+  // With several heading starts, each gets the same share of the budget and its own pair of
+  // starts, turned by its heading about the source's centroid; the best of all goes on.
   const int first_level = d.firstSearchedLevel();
   int level = static_cast<int>(d.levels.size()) - 1;
   const Eigen::VectorXd origin = Eigen::VectorXd::Zero(n);
-  core::NelderMeadResult forward, mirrored;
-  const int mirrored_cap = p.symmetric_start ? budget / 2 : 0;
-  const int forward_cap = budget - mirrored_cap;
-  if (p.symmetric_start) {
-    const auto both =
-        searchBoth(level, {origin, steps, forward_cap}, {origin, -steps, mirrored_cap});
-    forward = both[0];
-    mirrored = both[1];
+  Eigen::Index yaw_index = -1;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (active[static_cast<std::size_t>(i)] == 5)
+      yaw_index = i;
+  const int headings = yaw_index >= 0 ? p.heading_starts : 1;
+  const int heading_budget = budget / headings;
+  for (int k = 0; k < headings; ++k) {
+    Eigen::VectorXd start = origin;
+    if (k > 0) // k * 360 / headings degrees, in (-180, 180]
+      start[yaw_index] = std::remainder(2.0 * M_PI * k / headings, 2.0 * M_PI);
+    const int mirrored_cap = p.symmetric_start ? heading_budget / 2 : 0;
+    const int forward_cap = heading_budget - mirrored_cap;
+    if (p.symmetric_start) {
+      const auto both =
+          searchBoth(level, {start, steps, forward_cap}, {start, -steps, mirrored_cap});
+      account(both[0]);
+      account(both[1]);
+    }
+    else {
+      account(search(level, *d.level(level).backend, start, steps, forward_cap));
+    }
   }
-  else {
-    forward = search(level, *d.level(level).backend, origin, steps, forward_cap);
-  }
-  account(forward);
-  if (p.symmetric_start)
-    account(mirrored);
   int stage_evaluations = 0;
   auto endSearchStage = [&](const std::string& name) {
     endStage(name, result.evaluations - stage_evaluations);

@@ -232,6 +232,12 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   reg.setResolution(0.5);
   reg.setNumberOfRestarts(-1);
   EXPECT_EQ(reg.getNumberOfRestarts(), pcl_mi::Parameters().restarts);
+  reg.setNumberOfHeadingStarts(0);
+  EXPECT_EQ(reg.getNumberOfHeadingStarts(), 1);
+  reg.setNumberOfHeadingStarts(361);
+  EXPECT_EQ(reg.getNumberOfHeadingStarts(), 1);
+  reg.setNumberOfHeadingStarts(8);
+  EXPECT_EQ(reg.getNumberOfHeadingStarts(), 8);
 
   pcl_mi::Parameters bad;
   bad.max_iterations = 0;

@@ -201,6 +201,30 @@ TEST(Registration, SameRelativeAccuracyAtOtherScales)
   }
 }
 
+TEST(Registration, HeadingStartsFindAGuessFacingTheWrongWay)
+{
+  // The source's position roughly known (3.6 m off) but its heading not: turned by 135 and
+  // -150 deg about its own origin, out of the reach of the paper's simplex about the guess,
+  // and found by the coarsest level's extra heading starts.
+  auto source = test_data::loadScan("02", 6);
+  auto target = test_data::loadScan("02", 0);
+  const Eigen::Matrix4d reference = test_data::referenceTransform("02", 0, 6);
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setNumberOfHeadingStarts(8);
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  for (const auto& [x, y, yaw] : {std::make_tuple(3.0, -2.0, 135.0),
+                                  std::make_tuple(-2.0, -3.0, -150.0)}) {
+    SCOPED_TRACE(testing::Message() << "offset " << x << ", " << y << ", turn " << yaw);
+    const Eigen::Matrix4d guess = test_data::planarMotion(x, y, 0.0) * reference *
+                                  test_data::planarMotion(0.0, 0.0, yaw);
+    Cloud aligned;
+    reg.align(aligned, guess.cast<float>());
+    EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+    EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+  }
+}
+
 TEST(Registration, CostPeaksAtTheReference)
 {
   auto source = test_data::loadScan("02", 6);

@@ -128,14 +128,26 @@ public:
     return core_.parameters().symmetric_start;
   }
 
-  /** \brief Restarts around the best vertex with a 1/4-size simplex (default 2; the paper's
-   * search is 0). */
+  /** \brief Restarts around the best vertex on the finest searched level (default 0: the
+   * refinement sharpens the optimum instead; without a refinement 2 lift the search out of
+   * the grid's small local optima). */
   void
   setNumberOfRestarts(int restarts);
   int
   getNumberOfRestarts() const
   {
     return core_.parameters().restarts;
+  }
+
+  /** \brief Headings (yaw) the coarsest level starts from, spread evenly over 360 degrees
+   * from the guess's (default 1). 4-8 where the heading of the guess may be off by more
+   * than about 60 degrees (pcl_mi::Parameters::heading_starts). */
+  void
+  setNumberOfHeadingStarts(int headings);
+  int
+  getNumberOfHeadingStarts() const
+  {
+    return core_.parameters().heading_starts;
   }
 
   /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of

@@ -107,6 +107,14 @@ struct Parameters {
    * paper's simplex explores mainly along its positive steps and misses large motion in
    * the opposite direction (e.g. aligning an earlier scan onto a later one). */
   bool symmetric_start = true;
+  /** Headings the coarsest level starts from, spread evenly over 360 degrees of yaw from
+   * the guess's (1 = the guess's only). The paper's simplex, mirrored, reaches about +-60
+   * degrees of heading error; where the heading is unknown, more starts search the other
+   * headings too, each on the cheap coarsest grid, and the one with the highest mutual
+   * information goes on (measured on KITTI with any heading: 44 % of alignments succeed
+   * with 1 start, 97 % with 4, 99.7 % with 8). Ignored when yaw is pinned (a zero yaw
+   * step). */
+  int heading_starts = 1;
   /** Levels of the coarse-to-fine voxel pyramid. Level l uses resolution * 2^l; the search
    * starts on the coarsest level, whose smoother cost has a wider basin, and refines the
    * optimum on each finer level. With a refinement (and more than one level) the

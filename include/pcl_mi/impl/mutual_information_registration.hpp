@@ -225,6 +225,15 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfRest
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfHeadingStarts(
+    int headings)
+{
+  updateParameters("setNumberOfHeadingStarts",
+                   [&](pcl_mi::Parameters& p) { p.heading_starts = headings; });
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setBackend(
     pcl_mi::Backend backend)
 {
