@@ -58,6 +58,8 @@ printHelp(const char* program)
       "  -heading_starts N     start the coarsest search from N headings spread over\n"
       "                        360 deg, for guesses whose heading may be off by more than\n"
       "                        about 60 deg (default %d)\n"
+      "  -position_starts N    also start it from N positions around the guess (half the\n"
+      "                        x/y steps away), e.g. for a narrow field of view (default %d)\n"
       "  -levels N             coarse-to-fine pyramid levels (default %d; 1 = single grid)\n"
       "  -subdivision N        source samples per voxel edge (default %d; 0 = every point)\n"
       "  -refinement on|off    refine the MI optimum on the target's distributions\n"
@@ -82,7 +84,7 @@ printHelp(const char* program)
       "  -h                    this help\n",
       program, d.resolution, d.simplex_steps[0], d.simplex_steps[1], d.simplex_steps[2],
       d.simplex_steps[3] * deg, d.simplex_steps[4] * deg, d.simplex_steps[5] * deg,
-      d.max_iterations, d.heading_starts, d.pyramid_levels, d.source_subdivision);
+      d.max_iterations, d.heading_starts, d.position_starts, d.pyramid_levels, d.source_subdivision);
 }
 
 Eigen::Matrix4d
@@ -215,6 +217,7 @@ main(int argc, char** argv)
   parameters.max_iterations = max_iterations;
   pcl::console::parse_argument(argc, argv, "-levels", parameters.pyramid_levels);
   pcl::console::parse_argument(argc, argv, "-heading_starts", parameters.heading_starts);
+  pcl::console::parse_argument(argc, argv, "-position_starts", parameters.position_starts);
   pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
   pcl::console::parse_argument(argc, argv, "-refinement_resolution",
                                parameters.refinement_resolution);

@@ -191,7 +191,7 @@ yawDegrees(const Eigen::Matrix4d& t)
 
 /** Overrides of the MI defaults from the command line (negative: keep the default). */
 struct MiOverrides {
-  int subdivision = -1, levels = -1, restarts = -1, heading_starts = -1;
+  int subdivision = -1, levels = -1, restarts = -1, heading_starts = -1, position_starts = -1;
   double resolution = -1.0;
   std::vector<double> steps; ///< tx, ty, tz, roll, pitch, yaw (the clouds' units, degrees)
   pcl_mi::Backend backend = pcl_mi::Backend::Cpu;
@@ -226,6 +226,8 @@ makeMethod(const std::string& name)
       p.restarts = mi_overrides.restarts;
     if (mi_overrides.heading_starts >= 0)
       p.heading_starts = mi_overrides.heading_starts;
+    if (mi_overrides.position_starts >= 0)
+      p.position_starts = mi_overrides.position_starts;
     p.backend = mi_overrides.backend;
     if (!mi->setParameters(p))
       return nullptr;
@@ -470,7 +472,8 @@ printHelp(const char* program)
       "  -resolution R, -subdivision N, -levels N, -restarts N   override MI parameters\n"
       "                        (the refinement cube and tolerance follow -resolution)\n"
       "  -steps tx,ty,tz,roll,pitch,yaw   MI's initial simplex (the clouds' units, deg)\n"
-      "  -heading_starts N     MI's coarsest level starts from N headings (default 1)\n",
+      "  -heading_starts N     MI's coarsest level starts from N headings (default 1)\n"
+      "  -position_starts N    ... and from N further positions around the guess (default 0)\n",
       program,
       program);
 }
@@ -522,6 +525,7 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-levels", mi_overrides.levels);
   pcl::console::parse_argument(argc, argv, "-restarts", mi_overrides.restarts);
   pcl::console::parse_argument(argc, argv, "-heading_starts", mi_overrides.heading_starts);
+  pcl::console::parse_argument(argc, argv, "-position_starts", mi_overrides.position_starts);
   std::string backend = "cpu";
   pcl::console::parse_argument(argc, argv, "-backend", backend);
   if (!pcl_mi::parseBackend(backend, mi_overrides.backend)) {

@@ -238,6 +238,10 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   EXPECT_EQ(reg.getNumberOfHeadingStarts(), 1);
   reg.setNumberOfHeadingStarts(8);
   EXPECT_EQ(reg.getNumberOfHeadingStarts(), 8);
+  reg.setNumberOfPositionStarts(-1);
+  EXPECT_EQ(reg.getNumberOfPositionStarts(), 0);
+  reg.setNumberOfPositionStarts(4);
+  EXPECT_EQ(reg.getNumberOfPositionStarts(), 4);
 
   pcl_mi::Parameters bad;
   bad.max_iterations = 0;

@@ -225,6 +225,36 @@ TEST(Registration, HeadingStartsFindAGuessFacingTheWrongWay)
   }
 }
 
+TEST(Registration, PositionStartsAlignANarrowFieldOfView)
+{
+  // The bundled pair as a forward-looking sensor with a 70 deg field of view would see it.
+  // From the guess the search stays where the two fields of view coincide (about 6 m and
+  // 5 m off in the two directions); starts around the guess find the scene's optimum.
+  auto cutToView = [](const Cloud::Ptr& cloud) {
+    Cloud::Ptr cut(new Cloud);
+    for (const auto& point : *cloud)
+      if (std::abs(std::atan2(point.y, point.x)) <= 35.0 * M_PI / 180.0)
+        cut->push_back(point);
+    return cut;
+  };
+  const Cloud::Ptr later = cutToView(test_data::loadScan("00", 9));
+  const Cloud::Ptr earlier = cutToView(test_data::loadScan("00", 0));
+  ASSERT_LT(later->size(), 30000u);
+  const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
+  for (const bool backward : {false, true}) {
+    SCOPED_TRACE(backward ? "backward" : "forward");
+    pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+    reg.setNumberOfPositionStarts(4);
+    reg.setInputSource(backward ? earlier : later);
+    reg.setInputTarget(backward ? later : earlier);
+    Cloud aligned;
+    reg.align(aligned);
+    EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+    EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
+                     backward ? reference.inverse().eval() : reference);
+  }
+}
+
 TEST(Registration, CostPeaksAtTheReference)
 {
   auto source = test_data::loadScan("02", 6);

@@ -150,6 +150,17 @@ public:
     return core_.parameters().heading_starts;
   }
 
+  /** \brief Further starts of the coarsest level around the guess, half the x/y steps away
+   * (default 0); e.g. 4 for sensors with a narrow field of view
+   * (pcl_mi::Parameters::position_starts). */
+  void
+  setNumberOfPositionStarts(int positions);
+  int
+  getNumberOfPositionStarts() const
+  {
+    return core_.parameters().position_starts;
+  }
+
   /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of
    * the best one in each translation parameter; 0 (default) = 0.005 * resolution. */
   void

@@ -234,6 +234,15 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfHead
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfPositionStarts(
+    int positions)
+{
+  updateParameters("setNumberOfPositionStarts",
+                   [&](pcl_mi::Parameters& p) { p.position_starts = positions; });
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setBackend(
     pcl_mi::Backend backend)
 {
