@@ -8,11 +8,13 @@ scan, K = 4 a 16-ring one (about 1.7 deg between rings, close to a VLP-16's 2 de
 
 usage: kitti_ring_subset.py KITTI_ROOT K OUT_DIR [--sequences 00,01,02,05,08]
                             [--distance 1,10] [--max-yaw 20] [--poses semantic|gt]
-                            [--scale S]
+                            [--scale S] [--fov DEG]
 
 --scale S multiplies every coordinate and the reference translations by S (e.g. 1000 for
 millimetres, 0.1 for a scene the size of a room), to check that an alignment at resolution
 S (and simplex steps times S) is the same as at 1 m; --distance stays in metres before scaling.
+--fov DEG keeps only the points within DEG/2 of azimuth of straight ahead (+x), as a
+forward-looking sensor with that horizontal field of view would see them.
 
 The list holds every pair i < j of the stored frames whose motion is within --distance and
 --max-yaw, with the reference source-to-target transform T_i_j = inv(Tv_i) * Tv_j,
@@ -64,11 +66,14 @@ def main():
     parser.add_argument("--max-yaw", type=float, default=20.0)
     parser.add_argument("--poses", choices=["semantic", "gt"], default="semantic")
     parser.add_argument("--scale", type=float, default=1.0)
+    parser.add_argument("--fov", type=float, default=360.0)
     args = parser.parse_args()
     if args.every < 1:
         sys.exit("kitti_ring_subset: K must be >= 1")
     if not (args.scale > 0 and math.isfinite(args.scale)):
         sys.exit("kitti_ring_subset: --scale must be positive and finite")
+    if not 0 < args.fov <= 360:
+        sys.exit("kitti_ring_subset: --fov must be in (0, 360]")
     dmin, dmax = (float(v) for v in args.distance.split(","))
     os.makedirs(args.out, exist_ok=True)
 
@@ -88,6 +93,9 @@ def main():
         for k in frames:
             scan = np.fromfile(os.path.join(velodyne, f"{k:06d}.bin"), dtype=np.float32)
             subset = keep_rings(scan.reshape(-1, 4), args.every)
+            if args.fov < 360:
+                azimuth = np.degrees(np.arctan2(subset[:, 1], subset[:, 0]))
+                subset = subset[np.abs(azimuth) <= args.fov / 2]
             if args.scale != 1.0:
                 subset[:, :3] *= np.float32(args.scale)
             subset.tofile(os.path.join(args.out, f"{seq}_{k:06d}.bin"))

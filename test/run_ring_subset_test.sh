@@ -2,8 +2,8 @@
 # End-to-end: scripts/kitti_ring_subset.py on the bundled scans (every 2nd ring, a 32-ring
 # sensor), then pcl_mi_compare -list on what it wrote. Asserts that about half the points
 # are kept, that the list holds the two bundled pairs with their reference poses, and that
-# MI-VARZ aligns all four alignments within 0.15 m / 0.5 deg, and that --scale scales the
-# points and the reference translations only.
+# MI-VARZ aligns all four alignments within 0.15 m / 0.5 deg, that --scale scales the
+# points and the reference translations only, and that --fov cuts to the field of view.
 # Usage: run_ring_subset_test.sh SCRIPT COMPARE_BINARY DATA_DIR WORK_DIR
 set -euo pipefail
 script=$1 compare=$2 data=$3 work=$4
@@ -33,4 +33,15 @@ ra = np.array(open(f"{metres}/list.txt").read().split()[2:14], float).reshape(3,
 rb = np.array(open(f"{mm}/list.txt").read().split()[2:14], float).reshape(3, 4)
 assert np.allclose(rb[:, :3], ra[:, :3]) and np.allclose(rb[:, 3], 1000 * ra[:, 3])
 print("--scale 1000: points and reference translations x1000, rotations unchanged")
+PY
+# --fov keeps the points within half the angle of straight ahead, and all of those.
+/usr/bin/python3 "$script" "$data/kitti" 1 "$work/fov" --sequences 00 --fov 70 > /dev/null
+/usr/bin/python3 - "$work/all" "$work/fov" <<'PY'
+import sys
+import numpy as np
+full = np.fromfile(f"{sys.argv[1]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+cut = np.fromfile(f"{sys.argv[2]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+inside = np.abs(np.degrees(np.arctan2(full[:, 1], full[:, 0]))) <= 35
+assert np.array_equal(cut, full[inside]) and 0.1 < len(cut) / len(full) < 0.3
+print(f"--fov 70: {len(cut)} of {len(full)} points kept, all within +-35 deg")
 PY
