@@ -88,14 +88,31 @@ printHelp(const char* program)
 }
 
 Eigen::Matrix4d
-transformFromGuess(const std::vector<double>& g)
+transformFromGuess(const Eigen::Matrix<double, 6, 1>& g)
 {
-  const double deg = M_PI / 180.0;
   Eigen::Affine3d t = Eigen::Translation3d(g[0], g[1], g[2]) *
-                      Eigen::AngleAxisd(g[5] * deg, Eigen::Vector3d::UnitZ()) *
-                      Eigen::AngleAxisd(g[4] * deg, Eigen::Vector3d::UnitY()) *
-                      Eigen::AngleAxisd(g[3] * deg, Eigen::Vector3d::UnitX());
+                      Eigen::AngleAxisd(g[5], Eigen::Vector3d::UnitZ()) *
+                      Eigen::AngleAxisd(g[4], Eigen::Vector3d::UnitY()) *
+                      Eigen::AngleAxisd(g[3], Eigen::Vector3d::UnitX());
   return t.matrix();
+}
+
+/** Reads \a flag's tx,ty,tz,roll,pitch,yaw (angles in degrees) into \a out, angles in
+ * radians. Returns -1 when the flag is absent, 1 when read, 0 when malformed (said why). */
+int
+parsePoseVector(int argc, char** argv, const char* flag, Eigen::Matrix<double, 6, 1>& out)
+{
+  std::vector<double> values;
+  if (pcl::console::parse_x_arguments(argc, argv, flag, values) < 0)
+    return -1;
+  if (values.size() != 6) {
+    print_error("pcl_mi_align: %s takes 6 comma-separated values, got %zu\n", flag,
+                values.size());
+    return 0;
+  }
+  for (int i = 0; i < 6; ++i)
+    out[i] = i < 3 ? values[i] : values[i] * M_PI / 180.0;
+  return 1;
 }
 
 /** Shows (or, with \a screenshot, saves) target + source under the guess on the left and
@@ -166,13 +183,11 @@ main(int argc, char** argv)
   }
 
   Eigen::Matrix4d guess = Eigen::Matrix4d::Identity();
-  std::vector<double> guess_values;
-  if (pcl::console::parse_x_arguments(argc, argv, "-guess", guess_values) > 0) {
-    if (guess_values.size() != 6) {
-      print_error("pcl_mi_align: -guess takes 6 comma-separated values, got %zu\n",
-                  guess_values.size());
-      return 1;
-    }
+  Eigen::Matrix<double, 6, 1> guess_values;
+  switch (parsePoseVector(argc, argv, "-guess", guess_values)) {
+  case 0:
+    return 1;
+  case 1:
     guess = transformFromGuess(guess_values);
   }
   std::string guess_file, reference_file;
@@ -221,16 +236,8 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
   pcl::console::parse_argument(argc, argv, "-refinement_resolution",
                                parameters.refinement_resolution);
-  std::vector<double> steps;
-  if (pcl::console::parse_x_arguments(argc, argv, "-steps", steps) > 0) {
-    if (steps.size() != 6) {
-      print_error("pcl_mi_align: -steps takes 6 comma-separated values, got %zu\n",
-                  steps.size());
-      return 1;
-    }
-    for (int i = 0; i < 6; ++i)
-      parameters.simplex_steps[i] = i < 3 ? steps[i] : steps[i] * M_PI / 180.0;
-  }
+  if (parsePoseVector(argc, argv, "-steps", parameters.simplex_steps) == 0)
+    return 1;
   std::string backend = "cpu";
   pcl::console::parse_argument(argc, argv, "-backend", backend);
   if (!pcl_mi::parseBackend(backend, parameters.backend)) {
