@@ -464,8 +464,9 @@ struct RegistrationCore::Impl {
   {
     std::ostringstream s;
     s << "the " << which << " has " << cloud.points.size() << " usable points ("
-      << cloud.non_finite << " non-finite and " << cloud.outliers
-      << " far outliers dropped); at least " << kMinimumPoints << " are needed";
+      << cloud.non_finite << " non-finite, " << cloud.no_return << " at (0, 0, 0) and "
+      << cloud.outliers << " far outliers dropped); at least " << kMinimumPoints
+      << " are needed";
     return s.str();
   }
 
@@ -616,13 +617,13 @@ openClAvailable(std::string* reason)
 std::size_t
 RegistrationCore::droppedTargetPoints() const
 {
-  return impl_->target.non_finite + impl_->target.outliers;
+  return impl_->target.non_finite + impl_->target.no_return + impl_->target.outliers;
 }
 
 std::size_t
 RegistrationCore::droppedSourcePoints() const
 {
-  return impl_->source.non_finite + impl_->source.outliers;
+  return impl_->source.non_finite + impl_->source.no_return + impl_->source.outliers;
 }
 
 bool

@@ -74,20 +74,25 @@ TEST(FeatureBinning, QuantisedHeightStaysInVoxel)
   EXPECT_EQ(quantiseHeight(4.0f, 3), 255); // rounding at the upper face
 }
 
-TEST(LocalCloud, DropsNonFiniteAndFarOutliers)
+TEST(LocalCloud, DropsNonFiniteNoReturnAndFarOutliers)
 {
   PointList points;
-  for (int i = 0; i < 100; ++i)
+  for (int i = 1; i <= 100; ++i)
     points.emplace_back(0.1f * i, 0.05f * i, 0.0f);
   points.emplace_back(std::nanf(""), 0.0f, 0.0f);
   points.emplace_back(0.0f, std::numeric_limits<float>::infinity(), 0.0f);
   points.emplace_back(1e5f, 0.0f, 0.0f);
+  // No-return markers; a point merely near the origin stays.
+  points.insert(points.begin() + 10, 3, Eigen::Vector3f::Zero());
+  points.emplace_back(-0.0f, 0.0f, -0.0f);
+  points.emplace_back(0.0f, 0.0f, 1e-6f);
   const LocalCloud cloud = makeLocalCloud(points, 64.0);
   EXPECT_EQ(cloud.non_finite, 2u);
+  EXPECT_EQ(cloud.no_return, 4u);
   EXPECT_EQ(cloud.outliers, 1u);
-  ASSERT_EQ(cloud.points.size(), 100u);
-  EXPECT_NEAR(cloud.centroid.x(), 0.1 * 49.5, 1e-5);
-  EXPECT_NEAR(cloud.centroid.y(), 0.05 * 49.5, 1e-5);
+  ASSERT_EQ(cloud.points.size(), 101u);
+  EXPECT_NEAR(cloud.centroid.x(), 0.1 * 5050 / 101, 1e-5);
+  EXPECT_NEAR(cloud.centroid.y(), 0.05 * 5050 / 101, 1e-5);
 }
 
 TEST(LocalCloud, KeepsFarOffsetPrecision)

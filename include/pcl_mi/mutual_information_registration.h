@@ -39,8 +39,10 @@ namespace pcl {
  * (setMaximumIterations()) or any failure leaves it false. Failures are reported with
  * PCL_ERROR and getLastError(); no exception leaves align().
  *
- * Points with non-finite coordinates are skipped; points cut off from the rest of a cloud
- * by an empty gap of at least 64 voxels along an axis are dropped as outliers.
+ * Points with non-finite coordinates are skipped, and so are points at exactly (0, 0, 0)
+ * in the cloud's own frame: many drivers write a beam without a return there instead of
+ * NaN. Points cut off from the rest of a cloud by an empty gap of at least 64 voxels along
+ * an axis are dropped as outliers.
  *
  * \note Not thread-safe; use one object per thread.
  */

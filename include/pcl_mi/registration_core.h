@@ -106,8 +106,9 @@ public:
   const std::string&
   backendWarning() const;
 
-  /** \brief Number of points dropped from the last target/source as non-finite or as far
-   * outliers (isolated from the rest of the cloud by a large empty gap). */
+  /** \brief Number of points dropped from the last target/source: non-finite, exactly at
+   * (0, 0, 0) (the no-return marker of many drivers) or far outliers (isolated from the rest
+   * of the cloud by a large empty gap). */
   std::size_t
   droppedTargetPoints() const;
   std::size_t

@@ -59,15 +59,25 @@ makeLocalCloud(const PointList& points, double outlier_gap)
   // of points are worth 12 bytes a point.
   LocalCloud cloud;
   PointList& kept = cloud.points;
-  std::size_t finite = 0;
-  for (const auto& p : points)
+  // Many drivers write a beam without a return as (0, 0, 0) rather than NaN (fast_gicp's
+  // sample scans hold 5000 of them, 7 % of the points). Piled into the voxel at the sensor,
+  // they make a feature that agrees wherever the two sensors' piles meet: on that pair a
+  // scan turned by 180 deg had three times the MI of the true alignment.
+  const auto usable = [](const Eigen::Vector3f& p) {
+    return p.allFinite() && !(p.x() == 0.0f && p.y() == 0.0f && p.z() == 0.0f);
+  };
+  std::size_t finite = 0, kept_count = 0;
+  for (const auto& p : points) {
     finite += p.allFinite();
+    kept_count += usable(p);
+  }
   cloud.non_finite = points.size() - finite;
-  if (finite == 0)
+  cloud.no_return = finite - kept_count;
+  if (kept_count == 0)
     return cloud;
-  kept.reserve(finite);
+  kept.reserve(kept_count);
   for (const auto& p : points)
-    if (p.allFinite())
+    if (usable(p))
       kept.push_back(p);
 
   Eigen::Vector3d low, high;
@@ -83,7 +93,7 @@ makeLocalCloud(const PointList& points, double outlier_gap)
     kept[count++] = p;
     sum += pd;
   }
-  cloud.outliers = finite - count;
+  cloud.outliers = kept_count - count;
   kept.resize(count);
   cloud.centroid = sum / static_cast<double>(count);
   for (auto& p : kept)

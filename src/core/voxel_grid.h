@@ -30,10 +30,12 @@ struct LocalCloud {
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero(); ///< in the input frame, double
   PointList points;                                   ///< finite inliers, local frame
   std::size_t non_finite = 0;                         ///< dropped: NaN/Inf coordinates
+  std::size_t no_return = 0;                          ///< dropped: exactly (0, 0, 0)
   std::size_t outliers = 0;                           ///< dropped: far outliers
 };
 
-/** \brief Drops non-finite points, then points cut off from the bulk of the cloud along
+/** \brief Drops non-finite points and points at exactly (0, 0, 0) (the no-return marker of
+ * many drivers), then points cut off from the bulk of the cloud along
  * some axis by an empty gap of at least \a outlier_gap, and re-centres the rest on their
  * centroid (computed in double, so coordinates of 1e6 m keep their sub-millimetre detail
  * relative to each other). */
