@@ -96,6 +96,15 @@ TEST_F(BadInput, NanOnlyCloud)
   expectFailure(reg, "4 non-finite");
 }
 
+TEST_F(BadInput, NoReturnOnlyCloud)
+{
+  // A scan whose every beam came back empty, written as (0, 0, 0) by the driver.
+  Registration reg;
+  reg.setInputSource(source_);
+  reg.setInputTarget(cloudOf({{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {1, 2, 3}}));
+  expectFailure(reg, "target has 1 usable points (0 non-finite, 3 at (0, 0, 0)");
+}
+
 TEST_F(BadInput, NanAndInfPointsAreSkipped)
 {
   const float nan = std::numeric_limits<float>::quiet_NaN();
