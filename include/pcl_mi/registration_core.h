@@ -64,12 +64,13 @@ public:
   const Parameters&
   parameters() const;
 
-  /** \brief Sets the target points (non-finite points are skipped). Features are computed
-   * lazily, once per target and resolution/feature change. */
+  /** \brief Sets the target points (non-finite points and points at exactly (0, 0, 0) are
+   * skipped). Features are computed lazily, once per target and resolution/feature
+   * change. */
   void
   setTarget(PointList points);
 
-  /** \brief Sets the source points (non-finite points are skipped). */
+  /** \brief Sets the source points (skipped as for the target). */
   void
   setSource(PointList points);
 
