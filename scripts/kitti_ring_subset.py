@@ -28,24 +28,7 @@ import sys
 
 import numpy as np
 
-
-def read_tr(path):
-    for line in open(path):
-        if line.startswith("Tr:"):
-            tr = np.eye(4)
-            tr[:3, :] = np.array([float(v) for v in line.split()[1:13]]).reshape(3, 4)
-            return tr
-    sys.exit(f"kitti_ring_subset: no Tr: line in {path}")
-
-
-def read_poses(path):
-    poses = []
-    for line in open(path):
-        if line.strip():
-            p = np.eye(4)
-            p[:3, :] = np.array([float(v) for v in line.split()[:12]]).reshape(3, 4)
-            poses.append(p)
-    return poses
+from kitti_files import read_poses, read_tr
 
 
 def keep_rings(points, every):
