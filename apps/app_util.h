@@ -5,6 +5,8 @@
  */
 #pragma once
 
+#include <Eigen/Core>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -37,6 +39,18 @@ median(std::vector<double> v)
   std::sort(v.begin(), v.end());
   const std::size_t n = v.size();
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/** [tx, ty, tz, roll, pitch, yaw] with the angles in degrees, as the apps take it on the
+ * command line, into \a out with the angles in radians; false unless there are 6 values. */
+inline bool
+poseVectorFromDegrees(const std::vector<double>& values, Eigen::Matrix<double, 6, 1>& out)
+{
+  if (values.size() != 6)
+    return false;
+  for (int i = 0; i < 6; ++i)
+    out[i] = i < 3 ? values[i] : values[i] * M_PI / 180.0;
+  return true;
 }
 
 /** Reference poses of KITTI sequence \a sequence under \a root. \a kind "semantic":

@@ -3,6 +3,8 @@
  * the result for pcl_viewer.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "app_util.h"
+
 #include <pcl_mi/io.h>
 #include <pcl_mi/mutual_information_registration.h>
 
@@ -105,13 +107,11 @@ parsePoseVector(int argc, char** argv, const char* flag, Eigen::Matrix<double, 6
   std::vector<double> values;
   if (pcl::console::parse_x_arguments(argc, argv, flag, values) < 0)
     return -1;
-  if (values.size() != 6) {
+  if (!pcl_mi::apps::poseVectorFromDegrees(values, out)) {
     print_error("pcl_mi_align: %s takes 6 comma-separated values, got %zu\n", flag,
                 values.size());
     return 0;
   }
-  for (int i = 0; i < 6; ++i)
-    out[i] = i < 3 ? values[i] : values[i] * M_PI / 180.0;
   return 1;
 }
 

@@ -193,7 +193,8 @@ yawDegrees(const Eigen::Matrix4d& t)
 struct MiOverrides {
   int subdivision = -1, levels = -1, restarts = -1, heading_starts = -1, position_starts = -1;
   double resolution = -1.0;
-  std::vector<double> steps; ///< tx, ty, tz, roll, pitch, yaw (the clouds' units, degrees)
+  bool has_steps = false;
+  Eigen::Matrix<double, 6, 1> steps; ///< tx, ty, tz (the clouds' units), roll, pitch, yaw
   pcl_mi::Backend backend = pcl_mi::Backend::Cpu;
 } mi_overrides;
 
@@ -215,9 +216,8 @@ makeMethod(const std::string& name)
     p.feature = feature == "n" ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
     if (mi_overrides.resolution > 0.0)
       p.resolution = mi_overrides.resolution;
-    for (std::size_t i = 0; i < mi_overrides.steps.size(); ++i)
-      p.simplex_steps[static_cast<Eigen::Index>(i)] =
-          i < 3 ? mi_overrides.steps[i] : mi_overrides.steps[i] * M_PI / 180.0;
+    if (mi_overrides.has_steps)
+      p.simplex_steps = mi_overrides.steps;
     if (mi_overrides.subdivision >= 0)
       p.source_subdivision = mi_overrides.subdivision;
     if (mi_overrides.levels >= 0)
@@ -516,8 +516,10 @@ main(int argc, char** argv)
     print_error("pcl_mi_compare: -resolution must be positive and finite\n");
     return 1;
   }
-  if (pcl::console::parse_x_arguments(argc, argv, "-steps", mi_overrides.steps) >= 0 &&
-      mi_overrides.steps.size() != 6) {
+  std::vector<double> steps;
+  mi_overrides.has_steps = pcl::console::parse_x_arguments(argc, argv, "-steps", steps) >= 0;
+  if (mi_overrides.has_steps &&
+      !pcl_mi::apps::poseVectorFromDegrees(steps, mi_overrides.steps)) {
     print_error("pcl_mi_compare: -steps takes 6 comma-separated values\n");
     return 1;
   }

@@ -767,22 +767,20 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   const int first_level = d.firstSearchedLevel();
   int level = static_cast<int>(d.levels.size()) - 1;
   const Eigen::VectorXd origin = Eigen::VectorXd::Zero(n);
-  Eigen::Index yaw_index = -1;
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (active[static_cast<std::size_t>(i)] == 5)
-      yaw_index = i;
+  // Where parameter 0..5 sits in the search vector, -1 when pinned.
+  auto searchIndex = [&](int parameter) -> Eigen::Index {
+    const auto it = std::find(active.begin(), active.end(), parameter);
+    return it == active.end() ? -1 : static_cast<Eigen::Index>(it - active.begin());
+  };
+  const Eigen::Index x_index = searchIndex(0), y_index = searchIndex(1),
+                     yaw_index = searchIndex(5);
   const int headings = yaw_index >= 0 ? p.heading_starts : 1;
   // Position starts lie on the ellipse of half the x and y steps around the guess.
-  Eigen::Index x_index = -1, y_index = -1;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (active[static_cast<std::size_t>(i)] == 0)
-      x_index = i;
-    if (active[static_cast<std::size_t>(i)] == 1)
-      y_index = i;
-  }
   const int positions = x_index >= 0 || y_index >= 0 ? p.position_starts : 0;
   const int starts = headings + positions;
   const int start_budget = budget / starts;
+  const int mirrored_cap = p.symmetric_start ? start_budget / 2 : 0;
+  const int forward_cap = start_budget - mirrored_cap;
   std::vector<core::NelderMeadResult> start_best; // the better of each start's pair
   for (int k = 0; k < starts; ++k) {
     Eigen::VectorXd start = origin;
@@ -795,8 +793,6 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
       if (y_index >= 0)
         start[y_index] = 0.5 * steps[y_index] * std::sin(angle);
     }
-    const int mirrored_cap = p.symmetric_start ? start_budget / 2 : 0;
-    const int forward_cap = start_budget - mirrored_cap;
     if (p.symmetric_start) {
       const auto both =
           searchBoth(level, {start, steps, forward_cap}, {start, -steps, mirrored_cap});
@@ -839,7 +835,9 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
     const double half_voxel = 0.5 * d.levels[static_cast<std::size_t>(level)].resolution;
     int added = 0;
     for (const core::NelderMeadResult& r : start_best) {
-      bool distinct = added < kMaxStartCandidates;
+      if (added == kMaxStartCandidates)
+        break;
+      bool distinct = true;
       for (const Eigen::VectorXd& c : candidates) {
         double shift = 0.0, turn = 0.0;
         for (Eigen::Index i = 0; i < n; ++i) {
