@@ -1,5 +1,6 @@
 """Readers of KITTI's calib.txt and pose files, shared by the scripts that derive
 evaluation data from the KITTI odometry layout."""
+import os
 import sys
 
 import numpy as np
@@ -24,3 +25,20 @@ def read_poses(path):
             p[:3, :] = np.array([float(v) for v in line.split()[:12]]).reshape(3, 4)
             poses.append(p)
     return poses
+
+
+def load_sequence(root, seq, poses_kind, program):
+    """The velodyne directory of sequence \a seq, its stored frame numbers (sorted), and the
+    velodyne-frame pose Tv_k = inv(Tr) * P_k * Tr of each, from the SemanticKITTI poses
+    ("semantic": sequences/SS/poses.txt) or KITTI's ground truth ("gt": poses/SS.txt)."""
+    seq_dir = os.path.join(root, "sequences", seq)
+    velodyne = os.path.join(seq_dir, "velodyne")
+    if not os.path.isdir(velodyne):
+        sys.exit(f"{program}: no {velodyne}")
+    frames = sorted(int(f[:-4]) for f in os.listdir(velodyne) if f.endswith(".bin"))
+    tr = read_tr(os.path.join(seq_dir, "calib.txt"))
+    pose_file = (os.path.join(seq_dir, "poses.txt") if poses_kind == "semantic"
+                 else os.path.join(root, "poses", seq + ".txt"))
+    poses = read_poses(pose_file)
+    velo = {k: np.linalg.inv(tr) @ poses[k] @ tr for k in frames}
+    return velodyne, frames, velo

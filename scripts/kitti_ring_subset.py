@@ -28,7 +28,7 @@ import sys
 
 import numpy as np
 
-from kitti_files import read_poses, read_tr
+from kitti_files import load_sequence
 
 
 def keep_rings(points, every):
@@ -62,16 +62,7 @@ def main():
 
     rows = []
     for seq in args.sequences.split(","):
-        seq_dir = os.path.join(args.root, "sequences", seq)
-        velodyne = os.path.join(seq_dir, "velodyne")
-        if not os.path.isdir(velodyne):
-            sys.exit(f"kitti_ring_subset: no {velodyne}")
-        frames = sorted(int(f[:-4]) for f in os.listdir(velodyne) if f.endswith(".bin"))
-        tr = read_tr(os.path.join(seq_dir, "calib.txt"))
-        pose_file = (os.path.join(seq_dir, "poses.txt") if args.poses == "semantic"
-                     else os.path.join(args.root, "poses", seq + ".txt"))
-        poses = read_poses(pose_file)
-        velo = {k: np.linalg.inv(tr) @ poses[k] @ tr for k in frames}
+        velodyne, frames, velo = load_sequence(args.root, seq, args.poses, "kitti_ring_subset")
         kept = 0
         for k in frames:
             scan = np.fromfile(os.path.join(velodyne, f"{k:06d}.bin"), dtype=np.float32)
