@@ -118,12 +118,52 @@ struct Row {
   double seconds = 0;
   bool converged = false;
   int evaluations = 0;
+  /** Signed translation error (m) in the pair's travel frame: along the reference
+   * translation, to its left and up (the clouds' z is up). NaN where undefined (a reference
+   * translation too short or vertical) or unknown (rows of files without these columns). */
+  Eigen::Vector3d travel_error = Eigen::Vector3d::Constant(NAN);
+  /** The result and the reference, source to target (NaN in rows of older files). */
+  Eigen::Matrix4d estimate = Eigen::Matrix4d::Constant(NAN);
+  Eigen::Matrix4d reference = Eigen::Matrix4d::Constant(NAN);
 };
 
-const char* kCsvHeader =
-    "sequence,target,source,direction,true_translation_m,true_rotation_deg,"
-    "initial_translation_m,initial_rotation_deg,method,translation_error_m,"
-    "rotation_error_deg,seconds,converged,evaluations";
+/** The first 14 columns are the original format, which readRows() still accepts; the columns
+ * after them keep what an analysis beyond these tables needs: the signed error components and
+ * both transforms (top three rows, row-major). */
+std::string
+csvHeader(bool with_poses)
+{
+  std::string h = "sequence,target,source,direction,true_translation_m,true_rotation_deg,"
+                  "initial_translation_m,initial_rotation_deg,method,translation_error_m,"
+                  "rotation_error_deg,seconds,converged,evaluations";
+  if (!with_poses)
+    return h;
+  h += ",along_error_m,left_error_m,up_error_m";
+  for (const char* name : {"estimate", "reference"})
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
+  return h;
+}
+constexpr std::size_t kLegacyFields = 14;
+constexpr std::size_t kFields = kLegacyFields + 3 + 2 * 12;
+
+/** \a error = estimate - reference translation (target frame) along the reference
+ * translation, to its left and up; NaN where the travel direction is undefined. */
+Eigen::Vector3d
+travelFrameError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& reference)
+{
+  const Eigen::Vector3d t = reference.topRightCorner<3, 1>();
+  const Eigen::Vector3d along = t.normalized();
+  const Eigen::Vector3d left_raw = Eigen::Vector3d::UnitZ().cross(along);
+  // Below 1 mm of motion, or within 0.6 deg of vertical, "along" and "left" say nothing.
+  if (!(t.norm() > 1e-3) || !(left_raw.norm() > 1e-2))
+    return Eigen::Vector3d::Constant(NAN);
+  const Eigen::Vector3d left = left_raw.normalized();
+  const Eigen::Vector3d up = along.cross(left);
+  const Eigen::Vector3d error = estimate.topRightCorner<3, 1>() - t;
+  return {error.dot(along), error.dot(left), error.dot(up)};
+}
 
 void
 writeRow(std::ostream& out, const Row& r)
@@ -131,8 +171,16 @@ writeRow(std::ostream& out, const Row& r)
   out << r.sequence << ',' << r.target << ',' << r.source << ',' << r.direction << ','
       << r.true_translation << ',' << r.true_rotation << ',' << r.initial_translation << ','
       << r.initial_rotation << ',' << r.method << ',' << r.translation_error << ','
-      << r.rotation_error << ',' << r.seconds << ',' << r.converged << ',' << r.evaluations
-      << '\n';
+      << r.rotation_error << ',' << r.seconds << ',' << r.converged << ',' << r.evaluations;
+  for (int i = 0; i < 3; ++i)
+    out << ',' << r.travel_error[i];
+  const auto precision = out.precision(9); // enough for a float transform to round-trip
+  for (const Eigen::Matrix4d* m : {&r.estimate, &r.reference})
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 4; ++j)
+        out << ',' << (*m)(i, j);
+  out.precision(precision);
+  out << '\n';
 }
 
 /** Reads rows written by writeRow(); false with \a error on a malformed file. */
@@ -148,7 +196,7 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
   int number = 0;
   while (std::getline(in, line)) {
     ++number;
-    if (line.empty() || line == kCsvHeader)
+    if (line.empty() || line == csvHeader(false) || line == csvHeader(true))
       continue;
     std::vector<std::string> f;
     std::stringstream ss(line);
@@ -156,7 +204,7 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
     while (std::getline(ss, item, ','))
       f.push_back(item);
     try {
-      if (f.size() != 14)
+      if (f.size() != kLegacyFields && f.size() != kFields)
         throw std::invalid_argument("field count");
       Row r;
       r.sequence = f[0];
@@ -173,6 +221,17 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
       r.seconds = std::stod(f[11]);
       r.converged = f[12] == "1";
       r.evaluations = std::stoi(f[13]);
+      if (f.size() == kFields) {
+        std::size_t k = kLegacyFields;
+        for (int i = 0; i < 3; ++i)
+          r.travel_error[i] = std::stod(f[k++]);
+        for (Eigen::Matrix4d* m : {&r.estimate, &r.reference}) {
+          m->row(3) << 0.0, 0.0, 0.0, 1.0;
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 4; ++j)
+              (*m)(i, j) = std::stod(f[k++]);
+        }
+      }
       rows.push_back(r);
     }
     catch (const std::exception&) {
@@ -297,9 +356,11 @@ runMethod(const std::string& name,
   Row o;
   o.method = name;
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const auto e = pcl_mi::io::poseError(reg->getFinalTransformation().cast<double>(),
-                                       pair.reference);
+  o.estimate = reg->getFinalTransformation().cast<double>();
+  o.reference = pair.reference;
+  const auto e = pcl_mi::io::poseError(o.estimate, pair.reference);
   o.translation_error = e.translation;
+  o.travel_error = travelFrameError(o.estimate, pair.reference);
   o.rotation_error = e.rotation_deg;
   o.converged = reg->hasConverged();
   o.evaluations = 0;
@@ -363,6 +424,42 @@ printTable(const std::string& title,
     }
     std::printf(" %6zu\n", per_method.front().size());
   }
+}
+
+/** Mean signed error of the successful rows, per method, as a percentage of the pair's
+ * reference translation: a method that overshoots or drifts sideways shows it here where the
+ * unsigned means hide it, and a bias that every method shares points at the reference poses
+ * (e.g. the calibration that brings them into the sensor frame) rather than at a method. */
+void
+printBias(const std::vector<Row>& rows,
+          const std::vector<std::string>& methods,
+          const std::vector<double>& bound)
+{
+  bool header = false;
+  for (const auto& m : methods) {
+    std::vector<double> along, left, up;
+    for (const auto& row : rows) {
+      if (row.method != m || !succeeded(row, bound) || !row.travel_error.allFinite())
+        continue;
+      const Eigen::Vector3d percent = 100.0 * row.travel_error / row.true_translation;
+      along.push_back(percent[0]);
+      left.push_back(percent[1]);
+      up.push_back(percent[2]);
+    }
+    if (along.empty())
+      continue;
+    if (!header) {
+      std::printf("\nMean signed translation error of the successful rows [%% of the "
+                  "reference translation]\n%-14s %6s %9s %9s %9s\n",
+                  "method", "rows", "along", "left", "up");
+      header = true;
+    }
+    std::printf("%-14s %6zu %+9.3f %+9.3f %+9.3f\n", m.c_str(), along.size(), mean(along),
+                mean(left), mean(up));
+  }
+  if (header)
+    std::printf("(along: + = beyond the reference motion; left and up of the direction of "
+                "motion, z up)\n");
 }
 
 void
@@ -430,6 +527,7 @@ printTables(const std::vector<Row>& rows,
   }
   std::printf("(errors in m and deg; vs_first: median time relative to %s)\n",
               methods.front().c_str());
+  printBias(rows, methods, bound);
 }
 
 void
@@ -567,7 +665,7 @@ main(int argc, char** argv)
     }
     if (!csv_path.empty()) {
       std::ofstream csv(csv_path);
-      csv << kCsvHeader << '\n';
+      csv << csvHeader(true) << '\n';
       for (const auto& r : rows)
         writeRow(csv, r);
     }
@@ -721,7 +819,7 @@ main(int argc, char** argv)
       print_error("pcl_mi_compare: cannot write '%s'\n", csv_path.c_str());
       return 1;
     }
-    csv << kCsvHeader << '\n';
+    csv << csvHeader(true) << '\n';
   }
   std::vector<Row> rows;
   const auto started = std::chrono::steady_clock::now();

@@ -5,6 +5,10 @@ Usage: pcl_mi_plot.py RESULTS.csv OUTPUT_PREFIX
 
 Writes OUTPUT_PREFIX_translation.png and OUTPUT_PREFIX_rotation.png: boxplots of the final
 translation (rotation) error per method, grouped by 1 m (2 deg) bins of the initial error.
+Where the CSV has the signed error columns (pcl_mi_compare writes them), also
+OUTPUT_PREFIX_bias.png: the signed error along, left of and above the reference motion of
+every successful row (< 0.5 m and < 2 deg) against the distance between the scans, with the
+per-metre means; a bias that grows with the distance shows as a slope.
 Needs python3-matplotlib (Debian).
 """
 import csv
@@ -59,6 +63,50 @@ def boxplot(rows, initial_key, final_key, bin_width, unit, title, path):
     plt.close(fig)
 
 
+SUCCESS_M, SUCCESS_DEG = 0.5, 2.0  # pcl_mi_compare's default -success bound
+BIAS_COLUMNS = (("along_error_m", "along the reference motion (+ = beyond it)"),
+                ("left_error_m", "left of the reference motion"),
+                ("up_error_m", "above the reference motion"))
+
+
+def bias_plot(rows, path):
+    """Signed error components of the successful rows against the reference distance."""
+    rows = [r for r in rows
+            if float(r["translation_error_m"]) < SUCCESS_M
+            and float(r["rotation_error_deg"]) < SUCCESS_DEG
+            and not math.isnan(float(r["along_error_m"]))]
+    if not rows:
+        return False
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, axes = plt.subplots(1, 3, figsize=(13.0, 4.2), sharey=True)
+    for ax, (column, label) in zip(axes, BIAS_COLUMNS):
+        for m_index, method in enumerate(methods):
+            colour = colours[m_index % len(colours)]
+            points = [(float(r["true_translation_m"]), float(r[column])) for r in rows
+                      if r["method"] == method]
+            ax.scatter([d for d, _ in points], [e for _, e in points], s=6, alpha=0.35,
+                       color=colour)
+            by_metre = {}
+            for d, e in points:
+                by_metre.setdefault(int(d), []).append(e)
+            metres = sorted(by_metre)
+            ax.plot([m + 0.5 for m in metres],
+                    [sum(by_metre[m]) / len(by_metre[m]) for m in metres],
+                    marker="o", color=colour, label=method)
+        ax.axhline(0.0, color="black", linewidth=0.8)
+        ax.set_xlabel("distance between the scans (reference) [m]")
+        ax.set_title(label, fontsize="medium")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("signed translation error [m]")
+    axes[0].legend(loc="upper left", fontsize="small")
+    fig.suptitle("Signed error of the successful alignments (dots) and its mean per metre")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return True
+
+
 def main(argv):
     if len(argv) != 3:
         print(__doc__.strip(), file=sys.stderr)
@@ -77,7 +125,10 @@ def main(argv):
             "Final translation error vs initial error", prefix + "_translation.png")
     boxplot(rows, "initial_rotation_deg", "rotation_error_deg", 2.0, "deg",
             "Final rotation error vs initial error", prefix + "_rotation.png")
-    print(f"wrote {prefix}_translation.png and {prefix}_rotation.png")
+    written = [prefix + "_translation.png", prefix + "_rotation.png"]
+    if "along_error_m" in rows[0] and bias_plot(rows, prefix + "_bias.png"):
+        written.append(prefix + "_bias.png")
+    print("wrote " + ", ".join(written))
     return 0
 
 

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# The binning and table code on a small hand-made CSV (test/data/compare_small.csv):
-# means per 1 m / 2 deg bin, median runtime, success rate, and the summary.
-# Usage: run_compare_tables_test.sh COMPARE_BINARY CSV
+# The binning and table code on small hand-made CSVs: test/data/compare_small.csv (the
+# original 14 columns) gives means per 1 m / 2 deg bin, median runtime, success rate and the
+# summary; test/data/compare_bias.csv (with the signed error and transform columns) gives the
+# bias table.
+# Usage: run_compare_tables_test.sh COMPARE_BINARY SMALL_CSV BIAS_CSV
 set -euo pipefail
 out=$("$1" -merge "$2" -methods mi-varz,gicp)
 echo "$out"
@@ -19,3 +21,18 @@ expect '^1-2 m +100\.0 +0\.0 +2$'
 # Summary: 3 rows each; gicp 1 of 3 succeeds; median times 0.6 and 3.0 -> ratio 5.0x.
 expect '^mi-varz +3 +100\.0% +0\.150 '
 expect '^gicp +3 +33\.3% +1\.400 .* 5\.0x$'
+# Rows without the signed error columns have no bias table.
+if echo "$out" | grep -q "Mean signed"; then echo "bias table from rows without it"; exit 1; fi
+
+# Bias: the two successful mi-varz rows (2 m of motion) are off by (+1, +0.5, -0.2) % and
+# (+2, +0.5, 0) %; the failed one (1 m off) is left out. gicp: -1 % along.
+out=$("$1" -merge "$3" -methods mi-varz,gicp)
+echo "$out"
+expect '^mi-varz +2 +\+1\.500 +\+0\.500 +-0\.100$'
+expect '^gicp +1 +-1\.000 +\+0\.000 +\+0\.000$'
+# Both formats merge into one file in the new one (NaN where the old rows lack a value).
+merged=$(mktemp)
+trap 'rm -f "$merged"' EXIT
+"$1" -merge "$2" "$3" -csv "$merged" > /dev/null
+test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 41
+test "$(grep -c ',nan,' "$merged")" -eq 6

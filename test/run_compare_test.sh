@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # End-to-end: pcl_mi_compare on the bundled pairs (all four methods, both directions), two
-# shards merged, then pcl_mi_plot.py. Asserts the CSV and PNGs exist and every MI row meets
-# the registration bound (0.15 m, 0.5 deg).
+# shards merged, then pcl_mi_plot.py. Asserts the CSV and PNGs exist, every MI row meets the
+# registration bound (0.15 m, 0.5 deg), and the signed error columns agree with the transforms.
 # Usage: run_compare_test.sh COMPARE_BINARY PLOT_SCRIPT DATA_DIR WORK_DIR
 set -euo pipefail
 compare=$1 plot=$2 data=$3 work=$4
@@ -13,6 +13,20 @@ args=(-kitti "$data/kitti" -sequences 00,02 -pairs 00:0:9,02:0:6 -methods mi-var
 grep -q "Mean translation error \[m\] by initial translation error" "$work/tables.txt"
 /usr/bin/python3 "$plot" "$work/all.csv" "$work/plot"
 test -s "$work/plot_translation.png" && test -s "$work/plot_rotation.png"
+test -s "$work/plot_bias.png"
+grep -q "^Mean signed translation error of the successful rows" "$work/tables.txt"
+# Every row keeps both transforms and the signed error in the travel frame (columns 15-17:
+# along, left, up); recomputed here from the transforms (18-29 estimate, 30-41 reference),
+# they must match the written components and the unsigned error.
+awk -F, 'NR == 1 { if (NF != 41) { print "header has " NF " columns"; exit 1 } next }
+  { ex = $21 - $33; ey = $25 - $37; ez = $29 - $41; n = sqrt($33^2 + $37^2 + $41^2)
+    ax = $33 / n; ay = $37 / n; az = $41 / n            # along: the reference motion
+    l = sqrt(ax^2 + ay^2); lx = -ay / l; ly = ax / l    # left: z x along, normalised
+    ux = -az * ly; uy = az * lx; uz = ax * ly - ay * lx # up: along x left
+    d1 = ex * ax + ey * ay + ez * az - $15; d2 = ex * lx + ey * ly - $16
+    d3 = ex * ux + ey * uy + ez * uz - $17; d4 = sqrt(ex^2 + ey^2 + ez^2) - $10
+    if (NF != 41 || d1^2 + d2^2 + d3^2 + d4^2 > 1e-8) { print "inconsistent row: " $0; bad++ } }
+  END { if (bad) exit 1 }' "$work/all.csv"
 # 4 alignments x 4 methods, and every MI row within the bound.
 test "$(tail -n +2 "$work/all.csv" | wc -l)" -eq 16
 awk -F, 'NR > 1 && $9 ~ /^mi-/ { n++; if ($10 >= 0.15 || $11 >= 0.5) { print "MI row out of bound: " $0; bad++ } }
