@@ -426,39 +426,45 @@ printTable(const std::string& title,
   }
 }
 
-/** Mean signed error of the successful rows, per method, as a percentage of the pair's
- * reference translation: a method that overshoots or drifts sideways shows it here where the
- * unsigned means hide it, and a bias that every method shares points at the reference poses
- * (e.g. the calibration that brings them into the sensor frame) rather than at a method. */
+/** Mean signed error of the successful rows, per method and direction, as a percentage of
+ * the pair's reference translation: a method that overshoots or drifts sideways shows it here
+ * where the unsigned means hide it, and a bias that every method shares points at the
+ * reference poses (e.g. the calibration that brings them into the sensor frame) rather than
+ * at a method. The directions stay apart because a disagreement with the reference about
+ * where the later scan is keeps its sign along and left of the motion when the pair is run
+ * backwards, but flips it up: a scan lower than the reference says makes the forward motion
+ * descend and the backward one climb. */
 void
 printBias(const std::vector<Row>& rows,
           const std::vector<std::string>& methods,
           const std::vector<double>& bound)
 {
   bool header = false;
-  for (const auto& m : methods) {
-    std::vector<double> along, left, up;
-    for (const auto& row : rows) {
-      if (row.method != m || !succeeded(row, bound) || !row.travel_error.allFinite())
+  for (const auto& m : methods)
+    for (const char* direction : {"forward", "backward"}) {
+      std::vector<double> along, left, up;
+      for (const auto& row : rows) {
+        if (row.method != m || row.direction != direction || !succeeded(row, bound) ||
+            !row.travel_error.allFinite())
+          continue;
+        const Eigen::Vector3d percent = 100.0 * row.travel_error / row.true_translation;
+        along.push_back(percent[0]);
+        left.push_back(percent[1]);
+        up.push_back(percent[2]);
+      }
+      if (along.empty())
         continue;
-      const Eigen::Vector3d percent = 100.0 * row.travel_error / row.true_translation;
-      along.push_back(percent[0]);
-      left.push_back(percent[1]);
-      up.push_back(percent[2]);
+      if (!header) {
+        std::printf("\nMean signed translation error of the successful rows [%% of the "
+                    "reference translation]\n%-14s %-9s %6s %9s %9s %9s\n",
+                    "method", "direction", "rows", "along", "left", "up");
+        header = true;
+      }
+      std::printf("%-14s %-9s %6zu %+9.3f %+9.3f %+9.3f\n", m.c_str(), direction,
+                  along.size(), mean(along), mean(left), mean(up));
     }
-    if (along.empty())
-      continue;
-    if (!header) {
-      std::printf("\nMean signed translation error of the successful rows [%% of the "
-                  "reference translation]\n%-14s %6s %9s %9s %9s\n",
-                  "method", "rows", "along", "left", "up");
-      header = true;
-    }
-    std::printf("%-14s %6zu %+9.3f %+9.3f %+9.3f\n", m.c_str(), along.size(), mean(along),
-                mean(left), mean(up));
-  }
   if (header)
-    std::printf("(along: + = beyond the reference motion; left and up of the direction of "
+    std::printf("(along: + = beyond the reference motion; left of and above the direction of "
                 "motion, z up)\n");
 }
 

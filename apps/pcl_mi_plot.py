@@ -8,7 +8,7 @@ translation (rotation) error per method, grouped by 1 m (2 deg) bins of the init
 Where the CSV has the signed error columns (pcl_mi_compare writes them), also
 OUTPUT_PREFIX_bias.png: the signed error along, left of and above the reference motion of
 every successful row (< 0.5 m and < 2 deg) against the distance between the scans, with the
-per-metre means; a bias that grows with the distance shows as a slope.
+per-metre means of each direction; a bias that grows with the distance shows as a slope.
 Needs python3-matplotlib (Debian).
 """
 import csv
@@ -83,17 +83,23 @@ def bias_plot(rows, path):
     for ax, (column, label) in zip(axes, BIAS_COLUMNS):
         for m_index, method in enumerate(methods):
             colour = colours[m_index % len(colours)]
-            points = [(float(r["true_translation_m"]), float(r[column])) for r in rows
-                      if r["method"] == method]
-            ax.scatter([d for d, _ in points], [e for _, e in points], s=6, alpha=0.35,
-                       color=colour)
-            by_metre = {}
-            for d, e in points:
-                by_metre.setdefault(int(d), []).append(e)
-            metres = sorted(by_metre)
-            ax.plot([m + 0.5 for m in metres],
-                    [sum(by_metre[m]) / len(by_metre[m]) for m in metres],
-                    marker="o", color=colour, label=method)
+            # Directions apart: a disagreement about the later scan's height changes sign
+            # with the direction (see pcl_mi_compare's bias table), along and left do not.
+            for direction, style, marker in (("forward", "-", "o"), ("backward", "--", "s")):
+                points = [(float(r["true_translation_m"]), float(r[column])) for r in rows
+                          if r["method"] == method and r["direction"] == direction]
+                if not points:
+                    continue
+                ax.scatter([d for d, _ in points], [e for _, e in points], s=6, alpha=0.3,
+                           color=colour, marker=marker)
+                by_metre = {}
+                for d, e in points:
+                    by_metre.setdefault(int(d), []).append(e)
+                metres = sorted(by_metre)
+                ax.plot([m + 0.5 for m in metres],
+                        [sum(by_metre[m]) / len(by_metre[m]) for m in metres],
+                        linestyle=style, marker=marker, color=colour,
+                        label=f"{method} {direction}")
         ax.axhline(0.0, color="black", linewidth=0.8)
         ax.set_xlabel("distance between the scans (reference) [m]")
         ax.set_title(label, fontsize="medium")

@@ -24,12 +24,15 @@ expect '^gicp +3 +33\.3% +1\.400 .* 5\.0x$'
 # Rows without the signed error columns have no bias table.
 if echo "$out" | grep -q "Mean signed"; then echo "bias table from rows without it"; exit 1; fi
 
-# Bias: the two successful mi-varz rows (2 m of motion) are off by (+1, +0.5, -0.2) % and
-# (+2, +0.5, 0) %; the failed one (1 m off) is left out. gicp: -1 % along.
+# Bias: the successful mi-varz rows (2 m of motion) are off by (+1, +0.5, -0.2) % forward
+# and (+2, +0.5, 0) % backward; the failed forward one (1 m off) is left out. gicp: -1 %
+# along, forward only.
 out=$("$1" -merge "$3" -methods mi-varz,gicp)
 echo "$out"
-expect '^mi-varz +2 +\+1\.500 +\+0\.500 +-0\.100$'
-expect '^gicp +1 +-1\.000 +\+0\.000 +\+0\.000$'
+expect '^mi-varz +forward +1 +\+1\.000 +\+0\.500 +-0\.200$'
+expect '^mi-varz +backward +1 +\+2\.000 +\+0\.500 +\+0\.000$'
+expect '^gicp +forward +1 +-1\.000 +\+0\.000 +\+0\.000$'
+if echo "$out" | grep -q '^gicp +backward'; then echo "gicp has no backward rows"; exit 1; fi
 # Both formats merge into one file in the new one (NaN where the old rows lack a value).
 merged=$(mktemp)
 trap 'rm -f "$merged"' EXIT
