@@ -1,5 +1,5 @@
-"""Readers of KITTI's calib.txt and pose files, shared by the scripts that derive
-evaluation data from the KITTI odometry layout."""
+"""Readers of KITTI's calib.txt and pose files, and the writer of pcl_mi_compare's -list
+file, shared by the scripts that derive evaluation data from the KITTI odometry layout."""
 import os
 import sys
 
@@ -42,3 +42,18 @@ def load_sequence(root, seq, poses_kind, program):
     poses = read_poses(pose_file)
     velo = {k: np.linalg.inv(tr) @ poses[k] @ tr for k in frames}
     return velodyne, frames, velo
+
+
+def list_row(source, target, transform):
+    """One pcl_mi_compare -list row: SOURCE TARGET and the top three rows of the 4x4
+    source-to-target \a transform, row-major."""
+    numbers = " ".join(f"{v:.9g}" for v in transform[:3, :].reshape(-1))
+    return f"{source} {target} {numbers}"
+
+
+def write_pair_list(out_dir, rows):
+    """Writes \a rows (from list_row) to OUT_DIR/list.txt and returns its path."""
+    path = os.path.join(out_dir, "list.txt")
+    with open(path, "w") as out:
+        out.write("\n".join(rows) + "\n")
+    return path

@@ -28,7 +28,7 @@ import sys
 
 import numpy as np
 
-from kitti_files import load_sequence
+from kitti_files import list_row, load_sequence, write_pair_list
 
 
 def keep_rings(points, every):
@@ -80,13 +80,10 @@ def main():
                 yaw = math.degrees(math.atan2(t[1, 0], t[0, 0]))
                 if dmin <= np.linalg.norm(t[:3, 3]) <= dmax and abs(yaw) <= args.max_yaw:
                     t[:3, 3] *= args.scale
-                    numbers = " ".join(f"{v:.9g}" for v in t[:3, :].reshape(-1))
-                    rows.append(f"{seq}_{j:06d}.bin {seq}_{i:06d}.bin {numbers}")
+                    rows.append(list_row(f"{seq}_{j:06d}.bin", f"{seq}_{i:06d}.bin", t))
         print(f"sequence {seq}: {len(frames)} scans, {kept // max(1, len(frames))} points "
               f"per scan kept (every {args.every}. ring)")
-    with open(os.path.join(args.out, "list.txt"), "w") as out:
-        out.write("\n".join(rows) + "\n")
-    print(f"{len(rows)} pairs in {os.path.join(args.out, 'list.txt')}")
+    print(f"{len(rows)} pairs in {write_pair_list(args.out, rows)}")
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 
-from kitti_files import load_sequence
+from kitti_files import list_row, load_sequence, write_pair_list
 
 
 def main():
@@ -61,14 +61,10 @@ def main():
             np.concatenate(parts).tofile(os.path.join(args.out, map_name))
             scan_name = f"{seq}_{k:06d}.bin"
             scans[k].tofile(os.path.join(args.out, scan_name))
-            reference = origin @ velo[k]
-            numbers = " ".join(f"{v:.9g}" for v in reference[:3, :].reshape(-1))
-            rows.append(f"{scan_name} {map_name} {numbers}")
+            rows.append(list_row(scan_name, map_name, origin @ velo[k]))
         print(f"sequence {seq}: {len(sources)} scans, each against a map of "
               f"{len(frames) - 1} scans")
-    with open(os.path.join(args.out, "list.txt"), "w") as out:
-        out.write("\n".join(rows) + "\n")
-    print(f"{len(rows)} cases in {os.path.join(args.out, 'list.txt')}")
+    print(f"{len(rows)} cases in {write_pair_list(args.out, rows)}")
 
 
 if __name__ == "__main__":
