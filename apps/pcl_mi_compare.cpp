@@ -120,7 +120,9 @@ struct Row {
   int evaluations = 0;
   /** Signed translation error (m) in the pair's travel frame: along the reference
    * translation, to its left and up (the clouds' z is up). NaN where undefined (a reference
-   * translation too short or vertical) or unknown (rows of files without these columns). */
+   * translation too short or vertical) or unknown (rows of files without these columns).
+   * Kept as read rather than derived from the rounded transforms below, so -merge writes
+   * back exactly what the shards wrote. */
   Eigen::Vector3d travel_error = Eigen::Vector3d::Constant(NAN);
   /** The result and the reference, source to target (NaN in rows of older files). */
   Eigen::Matrix4d estimate = Eigen::Matrix4d::Constant(NAN);
@@ -194,9 +196,10 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
   }
   std::string line;
   int number = 0;
+  const std::string legacy_header = csvHeader(false), header = csvHeader(true);
   while (std::getline(in, line)) {
     ++number;
-    if (line.empty() || line == csvHeader(false) || line == csvHeader(true))
+    if (line.empty() || line == legacy_header || line == header)
       continue;
     std::vector<std::string> f;
     std::stringstream ss(line);

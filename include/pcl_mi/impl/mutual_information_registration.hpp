@@ -280,7 +280,8 @@ void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setTranslationTolerance(
     double tolerance)
 {
-  updateParameters("setTranslationTolerance", [&](pcl_mi::Parameters& p) { p.translation_tolerance = tolerance; });
+  updateParameters("setTranslationTolerance",
+                   [&](pcl_mi::Parameters& p) { p.translation_tolerance = tolerance; });
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
