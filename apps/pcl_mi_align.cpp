@@ -62,6 +62,8 @@ printHelp(const char* program)
       "                        about 60 deg (default %d)\n"
       "  -position_starts N    also start it from N positions around the guess (half the\n"
       "                        x/y steps away), e.g. for a narrow field of view (default %d)\n"
+      "  -narrow_view_starts N position starts used instead when either cloud covers less\n"
+      "                        than 180 deg of azimuth about its origin (default %d; 0 = off)\n"
       "  -levels N             coarse-to-fine pyramid levels (default %d; 1 = single grid)\n"
       "  -subdivision N        source samples per voxel edge (default %d; 0 = every point)\n"
       "  -refinement on|off    refine the MI optimum on the target's distributions\n"
@@ -86,7 +88,8 @@ printHelp(const char* program)
       "  -h                    this help\n",
       program, d.resolution, d.simplex_steps[0], d.simplex_steps[1], d.simplex_steps[2],
       d.simplex_steps[3] * deg, d.simplex_steps[4] * deg, d.simplex_steps[5] * deg,
-      d.max_iterations, d.heading_starts, d.position_starts, d.pyramid_levels, d.source_subdivision);
+      d.max_iterations, d.heading_starts, d.position_starts, d.narrow_view_position_starts,
+      d.pyramid_levels, d.source_subdivision);
 }
 
 Eigen::Matrix4d
@@ -233,6 +236,8 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-levels", parameters.pyramid_levels);
   pcl::console::parse_argument(argc, argv, "-heading_starts", parameters.heading_starts);
   pcl::console::parse_argument(argc, argv, "-position_starts", parameters.position_starts);
+  pcl::console::parse_argument(argc, argv, "-narrow_view_starts",
+                               parameters.narrow_view_position_starts);
   pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
   pcl::console::parse_argument(argc, argv, "-refinement_resolution",
                                parameters.refinement_resolution);
@@ -314,6 +319,13 @@ main(int argc, char** argv)
   print_info("Converged: ");
   print_value("%s\n", reg.hasConverged() ? "yes (simplex met its tolerance)"
                                          : "no (iteration cap reached)");
+  if (reg.getLastResult().position_starts > 0) {
+    print_info("Position starts: ");
+    print_value("%d%s\n", reg.getLastResult().position_starts,
+                reg.getLastResult().position_starts > parameters.position_starts
+                    ? " (narrow field of view)"
+                    : "");
+  }
   if (reg.getNumberOfRefinementIterations() > 0) {
     print_info("Refinement iterations: ");
     print_value("%d\n", reg.getNumberOfRefinementIterations());

@@ -253,7 +253,8 @@ yawDegrees(const Eigen::Matrix4d& t)
 
 /** Overrides of the MI defaults from the command line (negative: keep the default). */
 struct MiOverrides {
-  int subdivision = -1, levels = -1, restarts = -1, heading_starts = -1, position_starts = -1;
+  int subdivision = -1, levels = -1, restarts = -1, heading_starts = -1, position_starts = -1,
+      narrow_view_starts = -1;
   double resolution = -1.0;
   bool has_steps = false;
   Eigen::Matrix<double, 6, 1> steps; ///< tx, ty, tz (the clouds' units), roll, pitch, yaw
@@ -290,6 +291,8 @@ makeMethod(const std::string& name)
       p.heading_starts = mi_overrides.heading_starts;
     if (mi_overrides.position_starts >= 0)
       p.position_starts = mi_overrides.position_starts;
+    if (mi_overrides.narrow_view_starts >= 0)
+      p.narrow_view_position_starts = mi_overrides.narrow_view_starts;
     p.backend = mi_overrides.backend;
     if (!mi->setParameters(p))
       return nullptr;
@@ -580,7 +583,9 @@ printHelp(const char* program)
       "                        (the refinement cube and tolerance follow -resolution)\n"
       "  -steps tx,ty,tz,roll,pitch,yaw   MI's initial simplex (the clouds' units, deg)\n"
       "  -heading_starts N     MI's coarsest level starts from N headings (default 1)\n"
-      "  -position_starts N    ... and from N further positions around the guess (default 0)\n",
+      "  -position_starts N    ... and from N further positions around the guess (default 0)\n"
+      "  -narrow_view_starts N ... or N where either cloud covers < 180 deg of azimuth\n"
+      "                        (default 8; 0 = off)\n",
       program,
       program);
 }
@@ -635,6 +640,8 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-restarts", mi_overrides.restarts);
   pcl::console::parse_argument(argc, argv, "-heading_starts", mi_overrides.heading_starts);
   pcl::console::parse_argument(argc, argv, "-position_starts", mi_overrides.position_starts);
+  pcl::console::parse_argument(argc, argv, "-narrow_view_starts",
+                               mi_overrides.narrow_view_starts);
   std::string backend = "cpu";
   pcl::console::parse_argument(argc, argv, "-backend", backend);
   if (!pcl_mi::parseBackend(backend, mi_overrides.backend)) {

@@ -78,6 +78,7 @@ Parameters::paper()
   p.source_subdivision = 0;
   p.restarts = 0;
   p.refinement = Refinement::None;
+  p.narrow_view_position_starts = 0;
   p.variance_z_binning.range_quantile = 0.0;
   p.point_count_binning.range_quantile = 0.0;
   return p;
@@ -115,6 +116,8 @@ Parameters::validate() const
     s << "heading starts must be 1..360, got " << heading_starts;
   else if (position_starts < 0 || position_starts > 360)
     s << "position starts must be 0..360, got " << position_starts;
+  else if (narrow_view_position_starts < 0 || narrow_view_position_starts > 360)
+    s << "narrow-view position starts must be 0..360, got " << narrow_view_position_starts;
   else if (pyramid_levels < 1 || pyramid_levels > 8)
     s << "pyramid levels must be 1..8, got " << pyramid_levels;
   else if (restarts < 0)
@@ -151,6 +154,11 @@ constexpr int kGuessCandidateIterations = 25;
 constexpr int kMaxStartCandidates = 3;
 /** Rotation (rad) below which two coarse optima half a coarse voxel apart are one basin. */
 constexpr double kCandidateSeparationRad = 0.2;
+
+/** Azimuth coverage (degrees) below which a cloud has a narrow field of view
+ * (Parameters::narrow_view_position_starts): a spinning LiDAR's scan covers 360, a
+ * solid-state sensor's its field of view (70-120 for common ones). */
+constexpr double kNarrowViewDegrees = 180.0;
 
 /** Fewest points a target cube needs to give the refinement a distribution. */
 constexpr int kRefinementMinimumPoints = 4;
@@ -776,7 +784,13 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
                      yaw_index = searchIndex(5);
   const int headings = yaw_index >= 0 ? p.heading_starts : 1;
   // Position starts lie on the ellipse of half the x and y steps around the guess.
-  const int positions = x_index >= 0 || y_index >= 0 ? p.position_starts : 0;
+  const bool narrow_view = std::min(d.target.azimuth_coverage_deg,
+                                     d.source.azimuth_coverage_deg) < kNarrowViewDegrees;
+  const int positions =
+      x_index >= 0 || y_index >= 0
+          ? std::max(p.position_starts, narrow_view ? p.narrow_view_position_starts : 0)
+          : 0;
+  result.position_starts = positions;
   const int starts = headings + positions;
   const int start_budget = budget / starts;
   const int mirrored_cap = p.symmetric_start ? start_budget / 2 : 0;

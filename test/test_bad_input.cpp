@@ -251,6 +251,12 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   EXPECT_EQ(reg.getNumberOfPositionStarts(), 0);
   reg.setNumberOfPositionStarts(4);
   EXPECT_EQ(reg.getNumberOfPositionStarts(), 4);
+  reg.setNarrowViewPositionStarts(-1);
+  EXPECT_EQ(reg.getNarrowViewPositionStarts(), 8);
+  reg.setNarrowViewPositionStarts(361);
+  EXPECT_EQ(reg.getNarrowViewPositionStarts(), 8);
+  reg.setNarrowViewPositionStarts(0);
+  EXPECT_EQ(reg.getNarrowViewPositionStarts(), 0);
 
   pcl_mi::Parameters bad;
   bad.max_iterations = 0;

@@ -106,6 +106,36 @@ TEST(LocalCloud, KeepsFarOffsetPrecision)
   EXPECT_FLOAT_EQ(cloud.points[9].x() - cloud.points[0].x(), 1.125f);
 }
 
+TEST(LocalCloud, AzimuthCoverageOfFullAndNarrowViews)
+{
+  // Rings of points about the origin, as a sensor at the origin sees them: a full turn,
+  // a 70 deg wedge centred on +x, and the wedge with a few stray returns elsewhere.
+  auto ring = [](double from_deg, double to_deg, int count, PointList& points) {
+    for (int i = 0; i < count; ++i) {
+      const double a = (from_deg + (to_deg - from_deg) * (i + 0.5) / count) * M_PI / 180.0;
+      for (const double range : {5.0, 20.0})
+        points.emplace_back(static_cast<float>(range * std::cos(a)),
+                            static_cast<float>(range * std::sin(a)), -1.7f);
+    }
+  };
+  PointList full, wedge;
+  ring(-180.0, 180.0, 36000, full);
+  ring(-35.0, 35.0, 7000, wedge);
+  EXPECT_DOUBLE_EQ(makeLocalCloud(full, 64.0).azimuth_coverage_deg, 360.0);
+  const double narrow = makeLocalCloud(wedge, 64.0).azimuth_coverage_deg;
+  EXPECT_GE(narrow, 70.0);
+  EXPECT_LE(narrow, 80.0); // the wedge's edges may reach into one more sector each
+  PointList stray = wedge;
+  ring(-180.0, 180.0, 36, stray);
+  EXPECT_EQ(makeLocalCloud(stray, 64.0).azimuth_coverage_deg, narrow);
+  // Measured about the input frame's origin, not the local frame's centroid: the same
+  // wedge moved 1 km away along +y lies within a few degrees of +y.
+  PointList far = wedge;
+  for (auto& p : far)
+    p.y() += 1000.0f;
+  EXPECT_LE(makeLocalCloud(far, 64.0).azimuth_coverage_deg, 10.0);
+}
+
 TEST(TargetGrid, HandBuiltVoxels)
 {
   // Three points in voxel (0,0,0), one in voxel (2,1,0): grid spans 3 x 2 x 1 voxels.
@@ -174,6 +204,8 @@ TEST(Parameters, PointCountRangeAdaptsByDefaultAndIsFixedInThePaperPreset)
   EXPECT_DOUBLE_EQ(Parameters().point_count_binning.range_quantile, 0.75);
   EXPECT_DOUBLE_EQ(Parameters().variance_z_binning.range_quantile, 0.0);
   EXPECT_DOUBLE_EQ(Parameters::paper().point_count_binning.range_quantile, 0.0);
+  EXPECT_EQ(Parameters().narrow_view_position_starts, 8);
+  EXPECT_EQ(Parameters::paper().narrow_view_position_starts, 0);
   Parameters p;
   p.point_count_binning.range_quantile = 1.5;
   EXPECT_NE(p.validate().find("quantile"), std::string::npos);

@@ -228,8 +228,10 @@ TEST(Registration, HeadingStartsFindAGuessFacingTheWrongWay)
 TEST(Registration, PositionStartsAlignANarrowFieldOfView)
 {
   // The bundled pair as a forward-looking sensor with a 70 deg field of view would see it.
-  // From the guess the search stays where the two fields of view coincide (about 6 m and
-  // 5 m off in the two directions); starts around the guess find the scene's optimum.
+  // From the guess alone the search stays where the two fields of view coincide (about 6 m
+  // and 5 m off in the two directions); starts around the guess find the scene's optimum.
+  // The defaults add them by themselves for such clouds; asked for explicitly, they work
+  // the same with the automatic ones off.
   auto cutToView = [](const Cloud::Ptr& cloud) {
     Cloud::Ptr cut(new Cloud);
     for (const auto& point : *cloud)
@@ -241,18 +243,32 @@ TEST(Registration, PositionStartsAlignANarrowFieldOfView)
   const Cloud::Ptr earlier = cutToView(test_data::loadScan("00", 0));
   ASSERT_LT(later->size(), 30000u);
   const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
-  for (const bool backward : {false, true}) {
-    SCOPED_TRACE(backward ? "backward" : "forward");
-    pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-    reg.setNumberOfPositionStarts(4);
-    reg.setInputSource(backward ? earlier : later);
-    reg.setInputTarget(backward ? later : earlier);
-    Cloud aligned;
-    reg.align(aligned);
-    EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
-    EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
-                     backward ? reference.inverse().eval() : reference);
-  }
+  for (const bool explicit_starts : {false, true})
+    for (const bool backward : {false, true}) {
+      SCOPED_TRACE(testing::Message() << (backward ? "backward" : "forward")
+                                      << (explicit_starts ? ", explicit starts" : ", defaults"));
+      pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+      if (explicit_starts) {
+        reg.setNarrowViewPositionStarts(0);
+        reg.setNumberOfPositionStarts(4);
+      }
+      reg.setInputSource(backward ? earlier : later);
+      reg.setInputTarget(backward ? later : earlier);
+      Cloud aligned;
+      reg.align(aligned);
+      EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+      EXPECT_EQ(reg.getLastResult().position_starts, explicit_starts ? 4 : 8);
+      EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
+                       backward ? reference.inverse().eval() : reference);
+    }
+  // Full scans of a spinning LiDAR get no extra starts: the defaults' cost is unchanged.
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setInputSource(test_data::loadScan("00", 9));
+  reg.setInputTarget(test_data::loadScan("00", 0));
+  Cloud aligned;
+  reg.align(aligned);
+  EXPECT_EQ(reg.getLastResult().position_starts, 0);
+  EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
 }
 
 TEST(Registration, NoReturnMarkersDoNotMakeAnOptimum)

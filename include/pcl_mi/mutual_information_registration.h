@@ -153,7 +153,7 @@ public:
   }
 
   /** \brief Further starts of the coarsest level around the guess, half the x/y steps away
-   * (default 0); e.g. 4 for sensors with a narrow field of view
+   * (default 0; narrow fields of view get setNarrowViewPositionStarts()'s without asking)
    * (pcl_mi::Parameters::position_starts). */
   void
   setNumberOfPositionStarts(int positions);
@@ -161,6 +161,18 @@ public:
   getNumberOfPositionStarts() const
   {
     return core_.parameters().position_starts;
+  }
+
+  /** \brief Position starts used instead of setNumberOfPositionStarts()'s, when more,
+   * where either cloud covers less than 180 degrees of azimuth about its own origin: a
+   * narrow field of view (default 8; 0 = never; pcl_mi::Parameters::
+   * narrow_view_position_starts). getLastResult().position_starts says what was used. */
+  void
+  setNarrowViewPositionStarts(int positions);
+  int
+  getNarrowViewPositionStarts() const
+  {
+    return core_.parameters().narrow_view_position_starts;
   }
 
   /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of

@@ -124,6 +124,16 @@ struct Parameters {
    * 4). With several starts (heading or position) the best few distinct coarse optima are
    * all refined on the next level, which decides. Ignored when x and y are pinned. */
   int position_starts = 0;
+  /** Position starts used instead, when more, for clouds with a narrow field of view:
+   * either cloud covers less than 180 degrees of azimuth about its own frame's z axis,
+   * where a spinning LiDAR's scan covers 360 (0 = never). Measured on KITTI cut to
+   * 70 / 120 deg fields of view (368 alignments each), success without / with 4 / with 8:
+   * identity guess 89.1 / 97.0 / 97.0 % and 94.3 / 99.2 / 100 %; guess perturbed by
+   * 1-10 m and +-20 deg 73.1 / 91.8 / 93.8 % and 85.3 / 95.9 / 97.3 %. Full scans are not
+   * affected. Clouds given in a frame whose origin lies far from the sensor may look
+   * narrow and only cost the extra starts; set 0 to rule that out.
+   * AlignmentResult::position_starts says what an alignment used. */
+  int narrow_view_position_starts = 8;
   /** Levels of the coarse-to-fine voxel pyramid. Level l uses resolution * 2^l; the search
    * starts on the coarsest level, whose smoother cost has a wider basin, and refines the
    * optimum on each finer level. With a refinement (and more than one level) the
@@ -184,7 +194,7 @@ struct Parameters {
 
   /** \brief The paper's exact method: one simplex from the guess, one grid, every source
    * point in every evaluation, fixed binning ranges; no mirrored start, pyramid, restarts
-   * or refinement. */
+   * or refinement, and no automatic position starts for a narrow field of view. */
   static Parameters
   paper();
 
@@ -236,6 +246,9 @@ struct AlignmentResult {
   int evaluations = 0;
   /** Gauss-Newton iterations of the refinement (0 when off or discarded). */
   int refinement_iterations = 0;
+  /** Further starts around the guess the coarsest level used: position_starts, or
+   * narrow_view_position_starts for a narrow field of view (0 when x and y are pinned). */
+  int position_starts = 0;
   /** Mutual information (nats) at the final transformation. */
   double mutual_information = 0.0;
   /** Empty on success, otherwise why the alignment failed. */

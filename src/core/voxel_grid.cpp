@@ -4,6 +4,7 @@
 #include "core/voxel_grid.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
 
@@ -98,7 +99,33 @@ makeLocalCloud(const PointList& points, double outlier_gap)
   cloud.centroid = sum / static_cast<double>(count);
   for (auto& p : kept)
     p = (p.cast<double>() - cloud.centroid).cast<float>();
+  cloud.azimuth_coverage_deg = azimuthCoverageDegrees(kept, cloud.centroid);
   return cloud;
+}
+
+double
+azimuthCoverageDegrees(const PointList& points, const Eigen::Vector3d& centroid)
+{
+  constexpr int kSectors = 72;
+  constexpr std::size_t kLooked = 8192;
+  if (points.empty())
+    return 0.0;
+  const std::size_t stride = std::max<std::size_t>(1, points.size() / kLooked);
+  std::array<std::size_t, kSectors> count{};
+  std::size_t looked = 0;
+  for (std::size_t i = 0; i < points.size(); i += stride) {
+    const Eigen::Vector3d p = points[i].cast<double>() + centroid;
+    const double sector = (std::atan2(p.y(), p.x()) + M_PI) * (kSectors / (2.0 * M_PI));
+    ++count[static_cast<std::size_t>(std::clamp(static_cast<int>(sector), 0, kSectors - 1))];
+    ++looked;
+  }
+  // 5 % of an even share: a 360-degree scan's emptiest sectors (behind the vehicle, open
+  // fields) keep far more, a cut-off sector's stray returns far fewer.
+  const double threshold = 0.05 * static_cast<double>(looked) / kSectors;
+  int covered = 0;
+  for (const std::size_t c : count)
+    covered += static_cast<double>(c) >= threshold;
+  return covered * (360.0 / kSectors);
 }
 
 bool

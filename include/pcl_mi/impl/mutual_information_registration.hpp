@@ -243,6 +243,15 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfPosi
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNarrowViewPositionStarts(
+    int positions)
+{
+  updateParameters("setNarrowViewPositionStarts",
+                   [&](pcl_mi::Parameters& p) { p.narrow_view_position_starts = positions; });
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setBackend(
     pcl_mi::Backend backend)
 {
