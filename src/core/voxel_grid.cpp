@@ -119,8 +119,10 @@ azimuthCoverageDegrees(const PointList& points, const Eigen::Vector3d& centroid)
     ++count[static_cast<std::size_t>(std::clamp(static_cast<int>(sector), 0, kSectors - 1))];
     ++looked;
   }
-  // 5 % of an even share: a 360-degree scan's emptiest sectors (behind the vehicle, open
-  // fields) keep far more, a cut-off sector's stray returns far fewer.
+  // 5 % of an even share: the emptiest sectors of KITTI's 360-degree scans hold 13 times
+  // that, a cut-off sector's stray returns far fewer. A spinning scan with gaps still covers
+  // far more than the 180 degrees that make a view narrow (KITTI thinned to 16 rings: at
+  // least 325).
   const double threshold = 0.05 * static_cast<double>(looked) / kSectors;
   int covered = 0;
   for (const std::size_t c : count)
