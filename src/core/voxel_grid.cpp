@@ -96,15 +96,16 @@ makeLocalCloud(const PointList& points, double outlier_gap)
   }
   cloud.outliers = kept_count - count;
   kept.resize(count);
+  // Measured in the input frame, before re-centring, since the sensor sits at its origin.
+  cloud.azimuth_coverage_deg = azimuthCoverageDegrees(kept);
   cloud.centroid = sum / static_cast<double>(count);
   for (auto& p : kept)
     p = (p.cast<double>() - cloud.centroid).cast<float>();
-  cloud.azimuth_coverage_deg = azimuthCoverageDegrees(kept, cloud.centroid);
   return cloud;
 }
 
 double
-azimuthCoverageDegrees(const PointList& points, const Eigen::Vector3d& centroid)
+azimuthCoverageDegrees(const PointList& points)
 {
   constexpr int kSectors = 72;
   constexpr std::size_t kLooked = 8192;
@@ -114,7 +115,7 @@ azimuthCoverageDegrees(const PointList& points, const Eigen::Vector3d& centroid)
   std::array<std::size_t, kSectors> count{};
   std::size_t looked = 0;
   for (std::size_t i = 0; i < points.size(); i += stride) {
-    const Eigen::Vector3d p = points[i].cast<double>() + centroid;
+    const Eigen::Vector3d p = points[i].cast<double>();
     const double sector = (std::atan2(p.y(), p.x()) + M_PI) * (kSectors / (2.0 * M_PI));
     ++count[static_cast<std::size_t>(std::clamp(static_cast<int>(sector), 0, kSectors - 1))];
     ++looked;

@@ -37,13 +37,13 @@ struct LocalCloud {
   double azimuth_coverage_deg = 0.0;
 };
 
-/** \brief Degrees of azimuth, about the input frame's z axis through its origin, that
- * \a points (local frame, centred on \a centroid) cover: the sum of the 5-degree sectors
+/** \brief Degrees of azimuth, about the z axis through the origin of their frame, that
+ * \a points cover: the sum of the 5-degree sectors
  * holding at least 5 % of an even share of the points. 360 for a spinning LiDAR's scan in its
  * own frame; about the field of view for a solid-state sensor's. A few thousand points
  * spread evenly through the cloud are looked at, so stray returns do not count. */
 double
-azimuthCoverageDegrees(const PointList& points, const Eigen::Vector3d& centroid);
+azimuthCoverageDegrees(const PointList& points);
 
 /** \brief Drops non-finite points and points at exactly (0, 0, 0) (the no-return marker of
  * many drivers), then points cut off from the bulk of the cloud along
