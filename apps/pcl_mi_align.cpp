@@ -79,6 +79,8 @@ printHelp(const char* program)
       "                        (default: the first GPU, else the first device)\n"
       "  -profile              print where the time went, stage by stage, and the\n"
       "                        backend's own stages (OpenCL: kernel times from events)\n"
+      "  -transform FILE       also write the final transformation there as 4x4 text (the\n"
+      "                        format -guess_file and -reference read)\n"
       "  -aligned FILE         aligned source cloud (default aligned.pcd)\n"
       "  -merged FILE          target (grey) + aligned source (red) as XYZRGB for\n"
       "                        pcl_viewer (default merged.pcd)\n"
@@ -224,7 +226,8 @@ main(int argc, char** argv)
   int max_iterations =
       paper ? pcl_mi::Parameters::paper().max_iterations : reg.getMaximumIterations();
   pcl::console::parse_argument(argc, argv, "-max_iterations", max_iterations);
-  std::string aligned_path = "aligned.pcd", merged_path = "merged.pcd";
+  std::string aligned_path = "aligned.pcd", merged_path = "merged.pcd", transform_path;
+  pcl::console::parse_argument(argc, argv, "-transform", transform_path);
   pcl::console::parse_argument(argc, argv, "-aligned", aligned_path);
   pcl::console::parse_argument(argc, argv, "-merged", merged_path);
 
@@ -310,6 +313,13 @@ main(int argc, char** argv)
                 result(r, 3));
   print_info("Mutual information: ");
   print_value("%.5f nats\n", reg.getFinalMutualInformation());
+  if (!transform_path.empty()) {
+    const std::string transform_error = pcl_mi::io::saveTransform(transform_path, result);
+    if (!transform_error.empty()) {
+      print_error("pcl_mi_align: %s\n", transform_error.c_str());
+      return 1;
+    }
+  }
   print_info("Iterations: ");
   print_value("%d", reg.getFinalNumIteration());
   print_info(", cost evaluations: ");
@@ -378,6 +388,10 @@ main(int argc, char** argv)
     }
   }
   print_info("Wrote ");
+  if (!transform_path.empty()) {
+    print_value("%s", transform_path.c_str());
+    print_info(", ");
+  }
   print_value("%s", aligned_path.c_str());
   print_info(" and ");
   print_value("%s", merged_path.c_str());

@@ -101,6 +101,15 @@ TEST(CloudIo, TransformFiles)
   EXPECT_EQ(t(3, 3), 1.0);
   EXPECT_NE(pcl_mi::io::loadTransform(writeTemp("t5.txt", "1 2 3 4 5"), t), "");
   EXPECT_NE(pcl_mi::io::loadTransform(writeTemp("tx.txt", "1 0 0 x"), t), "");
+
+  // What saveTransform() writes reads back as the same doubles.
+  const Eigen::Matrix4d written = test_data::planarMotion(1.0 / 3.0, -2e-7, 17.25);
+  const std::string path = writeTemp("saved.txt", "");
+  EXPECT_EQ(pcl_mi::io::saveTransform(path, written), "");
+  EXPECT_EQ(pcl_mi::io::loadTransform(path, t), "");
+  EXPECT_EQ(t, written);
+  EXPECT_NE(pcl_mi::io::saveTransform("/nonexistent/dir/t.txt", written).find("cannot write"),
+            std::string::npos);
 }
 
 TEST(CloudIo, PoseErrorOfKnownOffsets)

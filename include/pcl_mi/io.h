@@ -29,6 +29,12 @@ loadKittiBin(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud);
 std::string
 loadTransform(const std::string& path, Eigen::Matrix4d& transform);
 
+/** \brief Writes \a transform as four rows of four numbers, readable by loadTransform()
+ * (and so by pcl_mi_align's -guess_file and -reference). Returns an empty string on
+ * success, else a one-line reason. */
+std::string
+saveTransform(const std::string& path, const Eigen::Matrix4d& transform);
+
 /** \brief Translation error (m) and rotation error (deg) of \a estimate against
  * \a reference: the translation and angle of inv(reference) * estimate. */
 struct PoseError {

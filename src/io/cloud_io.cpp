@@ -19,6 +19,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -504,6 +505,25 @@ loadTransform(const std::string& path, Eigen::Matrix4d& transform)
     transform(static_cast<int>(i / 4), static_cast<int>(i % 4)) = v[i];
   if (!transform.allFinite())
     return "'" + path + "' holds non-finite numbers";
+  return {};
+}
+
+std::string
+saveTransform(const std::string& path, const Eigen::Matrix4d& transform)
+{
+  std::ofstream out(path, std::ios::trunc);
+  if (!out)
+    return "cannot write '" + path + "'";
+  char line[128];
+  for (int r = 0; r < 4; ++r) {
+    // 17 significant digits: the text reads back as the same doubles.
+    std::snprintf(line, sizeof line, "%.17g %.17g %.17g %.17g\n", transform(r, 0),
+                  transform(r, 1), transform(r, 2), transform(r, 3));
+    out << line;
+  }
+  out.flush();
+  if (!out)
+    return "cannot write '" + path + "'";
   return {};
 }
 
