@@ -99,6 +99,10 @@ main(int argc, char** argv)
         "  -yaw_extent DEG       half-width of the heading sweep (default 45)\n"
         "  -yaw_step DEG         heading step (default 0.5)\n"
         "  -resolution R, -feature varz|count   MI settings (defaults 1, varz)\n"
+        "  -toward FILE          also sample the line from REFERENCE to the pose in FILE\n"
+        "                        (4x4 or 3x4 text, e.g. pcl_mi_align -transform): writes\n"
+        "                        PREFIX_line.csv (s, offset_m, mi, gicp) for s from -0.5\n"
+        "                        (beyond REFERENCE) to 1.5 (beyond FILE's pose)\n"
         "Plot with: pcl_mi_plot_cost_surface.py PREFIX\n",
         argv[0]);
     return argc < 4 ? 1 : 0;
@@ -119,7 +123,16 @@ main(int argc, char** argv)
     print_error("pcl_mi_cost_surface: %s\n", error.c_str());
     return 1;
   }
-  std::string prefix = "cost_surface", feature = "varz";
+  std::string prefix = "cost_surface", feature = "varz", toward_path;
+  pcl::console::parse_argument(argc, argv, "-toward", toward_path);
+  Eigen::Matrix4d toward = reference;
+  if (!toward_path.empty()) {
+    error = pcl_mi::io::loadTransform(toward_path, toward);
+    if (!error.empty()) {
+      print_error("pcl_mi_cost_surface: %s\n", error.c_str());
+      return 1;
+    }
+  }
   double extent = 10.0, step = 0.25, yaw_extent = 45.0, yaw_step = 0.5, resolution = 1.0;
   pcl::console::parse_argument(argc, argv, "-o", prefix);
   pcl::console::parse_argument(argc, argv, "-extent", extent);
@@ -193,7 +206,30 @@ main(int argc, char** argv)
     if ((k + m) % 10 == 0 || k == m)
       print_info("\rpcl_mi_cost_surface: heading sweep %3d%%", 100 * (k + m + 1) / (2 * m + 1));
   }
-  print_info("\nWrote %s_xy.csv and %s_yaw.csv (plot: pcl_mi_plot_cost_surface.py %s)\n",
+  print_info("\n");
+
+  if (!toward_path.empty()) {
+    // Rotation angle and translation both scale with s, so s = 0 is the reference, s = 1 the
+    // other pose, and the step between them is the same at every s.
+    const Eigen::Matrix4d delta = reference.inverse() * toward;
+    const Eigen::AngleAxisd rotation(Eigen::Matrix3d(delta.topLeftCorner<3, 3>()));
+    const double distance = delta.topRightCorner<3, 1>().norm();
+    std::ofstream line(prefix + "_line.csv");
+    line << "s,offset_m,mi,gicp\n";
+    constexpr int kLineSteps = 40; // s = -0.5 .. 1.5 in steps of 0.05
+    for (int k = 0; k <= kLineSteps; ++k) {
+      const double t = -0.5 + 2.0 * k / kLineSteps;
+      Eigen::Matrix4d step = Eigen::Matrix4d::Identity();
+      step.topLeftCorner<3, 3>() = Eigen::AngleAxisd(t * rotation.angle(), rotation.axis()).matrix();
+      step.topRightCorner<3, 1>() = t * delta.topRightCorner<3, 1>();
+      const Eigen::Matrix4d pose = reference * step;
+      line << t << ',' << t * distance << ',' << reg.evaluate(pose) << ','
+           << gicpCost(pose, source, sampled, source_cov, target, target_tree, target_cov, 5.0)
+           << '\n';
+    }
+    print_info("Wrote %s_line.csv\n", prefix.c_str());
+  }
+  print_info("Wrote %s_xy.csv and %s_yaw.csv (plot: pcl_mi_plot_cost_surface.py %s)\n",
              prefix.c_str(), prefix.c_str(), prefix.c_str());
   return 0;
 }

@@ -5,9 +5,12 @@ Usage: pcl_mi_plot_cost_surface.py PREFIX
 
 Reads PREFIX_xy.csv and PREFIX_yaw.csv; writes PREFIX_xy.png (MI over the (tx, ty) grid
 around the reference) and PREFIX_yaw.png (MI and GICP's objective versus heading, each
-normalised to [0, 1], MI inverted so that both have their optimum at the bottom).
+normalised to [0, 1], MI inverted so that both have their optimum at the bottom). Where
+PREFIX_line.csv exists (pcl_mi_cost_surface -toward), also PREFIX_line.png: both costs on the
+line from the reference to the other pose, on their own axes.
 Needs python3-matplotlib and python3-numpy (Debian).
 """
+import os
 import sys
 
 import matplotlib
@@ -30,8 +33,9 @@ def main(argv):
         return 1
     prefix = argv[1]
     try:
-        xy = np.genfromtxt(prefix + "_xy.csv", delimiter=",", names=True)
-        yaw = np.genfromtxt(prefix + "_yaw.csv", delimiter=",", names=True)
+        # atleast_1d: a single-row file (-extent 0) reads as a 0-d array.
+        xy = np.atleast_1d(np.genfromtxt(prefix + "_xy.csv", delimiter=",", names=True))
+        yaw = np.atleast_1d(np.genfromtxt(prefix + "_yaw.csv", delimiter=",", names=True))
     except OSError as e:
         print(f"pcl_mi_plot_cost_surface: {e}", file=sys.stderr)
         return 1
@@ -64,7 +68,31 @@ def main(argv):
     fig.tight_layout()
     fig.savefig(prefix + "_yaw.png", dpi=120)
     plt.close(fig)
-    print(f"wrote {prefix}_xy.png and {prefix}_yaw.png")
+    written = [prefix + "_xy.png", prefix + "_yaw.png"]
+
+    if os.path.exists(prefix + "_line.csv"):
+        line = np.genfromtxt(prefix + "_line.csv", delimiter=",", names=True)
+        one = line["offset_m"][np.argmin(np.abs(line["s"] - 1.0))]
+        fig, ax = plt.subplots(figsize=(7, 4))
+        ax.plot(line["offset_m"], line["gicp"], color="C1", label="GICP objective")
+        ax.set_xlabel("distance from the reference towards the other pose [m]")
+        ax.set_ylabel("GICP objective (lower is better)")
+        ax.axvline(0.0, color="grey", linestyle=":")
+        ax.axvline(one, color="black", linestyle="--")
+        ax.text(0.0, 1.01, "reference", transform=ax.get_xaxis_transform(), ha="center")
+        ax.text(one, 1.01, "other pose", transform=ax.get_xaxis_transform(), ha="center")
+        mi_axis = ax.twinx()
+        mi_axis.plot(line["offset_m"], line["mi"], color="C0", label="MI")
+        mi_axis.set_ylabel("mutual information [nats] (higher is better)")
+        handles = ax.get_legend_handles_labels()
+        mi_handles = mi_axis.get_legend_handles_labels()
+        ax.legend(handles[0] + mi_handles[0], handles[1] + mi_handles[1], loc="best")
+        ax.grid(True, alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(prefix + "_line.png", dpi=120)
+        plt.close(fig)
+        written.append(prefix + "_line.png")
+    print("wrote " + ", ".join(written))
     return 0
 
 
