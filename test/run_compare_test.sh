@@ -2,9 +2,10 @@
 # End-to-end: pcl_mi_compare on the bundled pairs (all four methods, both directions), two
 # shards merged, then pcl_mi_plot.py. Asserts the CSV and PNGs exist, every MI row meets the
 # registration bound (0.15 m, 0.5 deg), and the signed error columns agree with the transforms.
-# Usage: run_compare_test.sh COMPARE_BINARY PLOT_SCRIPT DATA_DIR WORK_DIR
+# Usage: run_compare_test.sh COMPARE_BINARY PLOT_SCRIPT DATA_DIR WORK_DIR COST_SURFACE_BINARY
+#        REFERENCE_CHECK_SCRIPT
 set -euo pipefail
-compare=$1 plot=$2 data=$3 work=$4
+compare=$1 plot=$2 data=$3 work=$4 cost_surface=$5 reference_check=$6
 rm -rf "$work" && mkdir -p "$work"
 args=(-kitti "$data/kitti" -sequences 00,02 -pairs 00:0:9,02:0:6 -methods mi-varz,mi-n,gicp,ndt)
 "$compare" "${args[@]}" -shard 1/2 -csv "$work/shard1.csv"
@@ -32,6 +33,12 @@ test "$(tail -n +2 "$work/all.csv" | wc -l)" -eq 16
 awk -F, 'NR > 1 && $9 ~ /^mi-/ { n++; if ($10 >= 0.15 || $11 >= 0.5) { print "MI row out of bound: " $0; bad++ } }
          END { if (n != 8 || bad) exit 1; print n " MI rows within 0.15 m / 0.5 deg" }' "$work/all.csv"
 
+# reference_check.py on the MI rows: one line per row, then the count.
+/usr/bin/python3 "$reference_check" "$cost_surface" "$data/kitti" "$work/all.csv" mi-varz |
+  tee "$work/check.txt"
+test "$(grep -c 'ward ' "$work/check.txt")" -eq 4
+grep -Eq "^[0-4] of 4 rows: GICP's objective is lower at the estimate" "$work/check.txt"
+
 # Generic input: the same pair as a -list row (absolute paths), run in both directions.
 printf '# source target reference(4x4)\n%s %s %s\n' \
   "$data/kitti/sequences/00/velodyne/000009.bin" "$data/kitti/sequences/00/velodyne/000000.bin" \
@@ -43,6 +50,15 @@ grep -q ",backward," "$work/list.csv"
 # gicp-coarse (PCL GICP on 0.25 m voxel-filtered clouds) from half a metre off: converges.
 "$compare" -list "$work/list.txt" -methods gicp-coarse -perturb 0.5,2 -csv "$work/coarse.csv"
 awk -F, 'NR > 1 { n++; if ($10 >= 0.5 || $11 >= 2) bad++ } END { if (n != 2 || bad) exit 1 }' "$work/coarse.csv"
+
+# A chain: gicp-coarse started from MI's result, from 3 m off; it keeps MI's evaluation
+# count (column 14), and a chain with an unknown link is refused.
+"$compare" -list "$work/list.txt" -methods mi-varz+gicp-coarse -perturb 3,10 -csv "$work/chain.csv"
+awk -F, 'NR > 1 { n++; if ($9 != "mi-varz+gicp-coarse" || $10 >= 0.15 || $11 >= 0.5 || $14 < 1) bad++ }
+         END { if (n != 2 || bad) exit 1 }' "$work/chain.csv"
+if "$compare" -list "$work/list.txt" -methods mi-varz+nothing > /dev/null 2>&1; then
+  echo "an unknown method in a chain should be refused"; exit 1
+fi
 
 # KITTI's own odometry layout (poses/SS.txt, no SemanticKITTI sequences/SS/poses.txt): the
 # default -poses auto falls back to the GPS/INS poses and says so; -poses semantic fails.
