@@ -24,6 +24,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -435,6 +436,16 @@ succeeded(const Row& r, const std::vector<double>& bound)
   return r.translation_error < bound[0] && r.rotation_error < bound[1];
 }
 
+/** Width of the summary tables' method column: the longest name, at least 14. */
+int
+methodColumnWidth(const std::vector<std::string>& methods)
+{
+  int width = 14;
+  for (const auto& m : methods)
+    width = std::max(width, static_cast<int>(m.size()));
+  return width;
+}
+
 /** Prints one table: rows are bins of an initial-error value, columns the methods. */
 void
 printTable(const std::string& title,
@@ -447,9 +458,13 @@ printTable(const std::string& title,
            const std::function<double(const std::vector<const Row*>&)>& statistic,
            const char* format)
 {
-  std::printf("\n%s\n%-10s", title.c_str(), "bin");
+  // Each column is as wide as its method's name (chains are long), at least 10.
+  std::vector<int> width;
   for (const auto& m : methods)
-    std::printf(" %10s", m.c_str());
+    width.push_back(std::max(10, static_cast<int>(m.size())));
+  std::printf("\n%s\n%-10s", title.c_str(), "bin");
+  for (std::size_t m = 0; m < methods.size(); ++m)
+    std::printf(" %*s", width[m], methods[m].c_str());
   std::printf(" %6s\n", "pairs");
   for (int b = 0; b < bins; ++b) {
     const double lo = b * bin_width, hi = (b + 1) * bin_width;
@@ -467,11 +482,12 @@ printTable(const std::string& title,
     char label[32];
     std::snprintf(label, sizeof(label), "%g-%g %s", lo, hi, unit);
     std::printf("%-10s", label);
-    for (const auto& v : per_method) {
-      if (v.empty())
-        std::printf(" %10s", "-");
-      else
-        std::printf(format, statistic(v));
+    for (std::size_t m = 0; m < methods.size(); ++m) {
+      char cell[64] = "-";
+      if (!per_method[m].empty())
+        std::snprintf(cell, sizeof(cell), format, statistic(per_method[m]));
+      const char* text = cell + std::strspn(cell, " ");
+      std::printf(" %*s", width[m], text);
     }
     std::printf(" %6zu\n", per_method.front().size());
   }
@@ -507,11 +523,13 @@ printBias(const std::vector<Row>& rows,
         continue;
       if (!header) {
         std::printf("\nMean signed translation error of the successful rows [%% of the "
-                    "reference translation]\n%-14s %-9s %6s %9s %9s %9s\n",
-                    "method", "direction", "rows", "along", "left", "up");
+                    "reference translation]\n%-*s %-9s %6s %9s %9s %9s\n",
+                    methodColumnWidth(methods), "method", "direction", "rows", "along", "left",
+                    "up");
         header = true;
       }
-      std::printf("%-14s %-9s %6zu %+9.3f %+9.3f %+9.3f\n", m.c_str(), direction,
+      std::printf("%-*s %-9s %6zu %+9.3f %+9.3f %+9.3f\n", methodColumnWidth(methods),
+                  m.c_str(), direction,
                   along.size(), mean(along), mean(left), mean(up));
     }
   if (header)
@@ -558,8 +576,9 @@ printTables(const std::vector<Row>& rows,
                 bound[0], bound[1]);
   printTable(title, rows, methods, 1.0, 40, "m", by_translation, success_rate, " %10.1f");
 
-  std::printf("\n%-14s %6s %9s %9s %9s %9s %10s %10s %8s\n", "method", "rows", "success",
-              "mean_t", "mean_r", "max_t", "median_s", "mean_evals", "vs_first");
+  const int name_width = methodColumnWidth(methods);
+  std::printf("\n%-*s %6s %9s %9s %9s %9s %10s %10s %8s\n", name_width, "method", "rows",
+              "success", "mean_t", "mean_r", "max_t", "median_s", "mean_evals", "vs_first");
   double first_time = NAN;
   for (const auto& m : methods) {
     std::vector<double> t, r, s, ev;
@@ -577,7 +596,7 @@ printTables(const std::vector<Row>& rows,
       continue;
     if (std::isnan(first_time))
       first_time = median(s);
-    std::printf("%-14s %6zu %8.1f%% %9.3f %9.3f %9.3f %10.3f %10.1f %7.1fx\n", m.c_str(),
+    std::printf("%-*s %6zu %8.1f%% %9.3f %9.3f %9.3f %10.3f %10.1f %7.1fx\n", name_width, m.c_str(),
                 t.size(), 100.0 * ok / t.size(), mean(t), mean(r),
                 *std::max_element(t.begin(), t.end()), median(s), mean(ev),
                 median(s) / first_time);
