@@ -87,6 +87,7 @@ def main(argv):
         handles = ax.get_legend_handles_labels()
         mi_handles = mi_axis.get_legend_handles_labels()
         ax.legend(handles[0] + mi_handles[0], handles[1] + mi_handles[1], loc="best")
+        ax.set_title("Costs on the line from the reference to the other pose", pad=18)
         ax.grid(True, alpha=0.3)
         fig.tight_layout()
         fig.savefig(prefix + "_line.png", dpi=120)
