@@ -215,6 +215,10 @@ main(int argc, char** argv)
     const Eigen::AngleAxisd rotation(Eigen::Matrix3d(delta.topLeftCorner<3, 3>()));
     const double distance = delta.topRightCorner<3, 1>().norm();
     std::ofstream line(prefix + "_line.csv");
+    if (!line) {
+      print_error("pcl_mi_cost_surface: cannot write '%s_line.csv'\n", prefix.c_str());
+      return 1;
+    }
     line << "s,offset_m,mi,gicp\n";
     constexpr int kLineSteps = 40; // s = -0.5 .. 1.5 in steps of 0.05
     for (int k = 0; k <= kLineSteps; ++k) {
