@@ -627,6 +627,10 @@ printHelp(const char* program)
       "  -pairs SS:i:j,...     only these pairs (sequence SS, frames i < j)\n"
       "  -stride K             every K-th pair only (default 1)\n"
       "  -repeat N             run every alignment N times, report the median time\n"
+      "  -shuffle S            run the pairs in an order shuffled with seed S (S > 0), so\n"
+      "                        that a slow spell of a shared machine spreads over all\n"
+      "                        bins instead of the bins it coincides with (default 0: in\n"
+      "                        order); the rows are the same\n"
       "  -backend cpu|opencl|auto   where MI's cost evaluations run (default cpu)\n"
       "  -directions both|forward|backward   (default both)\n"
       "  -perturb T,YAW        guess = reference perturbed by T m (random horizontal\n"
@@ -670,7 +674,7 @@ main(int argc, char** argv)
   std::string root, sequences_arg = "00,01,02,05,08", poses_kind = "auto";
   std::string methods_arg = "mi-varz,mi-n,gicp,ndt", directions = "both", csv_path, pairs_arg;
   std::string shard_arg;
-  int frames = 10, stride = 1, seed = 1, repeat = 1;
+  int frames = 10, stride = 1, seed = 1, repeat = 1, shuffle_seed = 0;
   double max_yaw = 20.0;
   std::vector<double> distance{1.0, 10.0}, perturb, success{0.5, 2.0};
   pcl::console::parse_argument(argc, argv, "-kitti", root);
@@ -690,6 +694,7 @@ main(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-stride", stride);
   pcl::console::parse_argument(argc, argv, "-seed", seed);
   pcl::console::parse_argument(argc, argv, "-repeat", repeat);
+  pcl::console::parse_argument(argc, argv, "-shuffle", shuffle_seed);
   pcl::console::parse_argument(argc, argv, "-max_yaw", max_yaw);
   if (pcl::console::parse_argument(argc, argv, "-resolution", mi_overrides.resolution) >= 0 &&
       !(mi_overrides.resolution > 0.0 && std::isfinite(mi_overrides.resolution))) {
@@ -727,7 +732,8 @@ main(int argc, char** argv)
       return 1;
     }
   if (distance.size() != 2 || success.size() != 2 ||
-      !(perturb.empty() || perturb.size() == 2 || perturb.size() == 3) || stride < 1 || repeat < 1) {
+      !(perturb.empty() || perturb.size() == 2 || perturb.size() == 3) || stride < 1 || repeat < 1 ||
+      shuffle_seed < 0) {
     print_error("pcl_mi_compare: bad arguments (see -h)\n");
     return 1;
   }
@@ -892,9 +898,12 @@ main(int argc, char** argv)
     print_error("pcl_mi_compare: no pair matches the selection\n");
     return 1;
   }
-  print_info("pcl_mi_compare: %zu alignments per method (%s guess, shard %d/%d), methods %s\n",
+  // After the shard's share is taken: shuffling changes the order, never the rows.
+  if (shuffle_seed > 0)
+    std::shuffle(pairs.begin(), pairs.end(), std::mt19937(static_cast<unsigned>(shuffle_seed)));
+  print_info("pcl_mi_compare: %zu alignments per method (%s guess, shard %d/%d%s), methods %s\n",
              pairs.size(), perturb.empty() ? "identity" : "perturbed", shard, shards,
-             methods_arg.c_str());
+             shuffle_seed > 0 ? ", shuffled" : "", methods_arg.c_str());
 
   std::ofstream csv;
   if (!csv_path.empty()) {

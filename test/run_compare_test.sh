@@ -33,6 +33,15 @@ test "$(tail -n +2 "$work/all.csv" | wc -l)" -eq 16
 awk -F, 'NR > 1 && $9 ~ /^mi-/ { n++; if ($10 >= 0.15 || $11 >= 0.5) { print "MI row out of bound: " $0; bad++ } }
          END { if (n != 8 || bad) exit 1; print n " MI rows within 0.15 m / 0.5 deg" }' "$work/all.csv"
 
+# -shuffle changes the order of the rows, not the rows (time, column 12, aside).
+"$compare" "${args[@]/mi-varz,mi-n,gicp,ndt/mi-varz}" -shuffle 5 -csv "$work/shuffled.csv"
+"$compare" "${args[@]/mi-varz,mi-n,gicp,ndt/mi-varz}" -csv "$work/ordered.csv"
+diff <(tail -n +2 "$work/shuffled.csv" | cut -d, -f1-11,13- | sort) \
+     <(grep ',mi-varz,' "$work/all.csv" | cut -d, -f1-11,13- | sort)
+if cmp -s <(cut -d, -f1-4 "$work/shuffled.csv") <(cut -d, -f1-4 "$work/ordered.csv"); then
+  echo "-shuffle 5 kept the order"; exit 1
+fi
+
 # reference_check.py on the MI rows: one line per row, then the count.
 /usr/bin/python3 "$reference_check" "$cost_surface" "$data/kitti" "$work/all.csv" mi-varz |
   tee "$work/check.txt"
