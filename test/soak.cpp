@@ -80,8 +80,8 @@ main(int argc, char** argv)
       auto& reg = k % 2 ? reused : fresh;
       reg.setInputSource(pair.source);
       reg.setInputTarget(pair.target);
-      const Eigen::Matrix4d guess =
-          test_data::planarMotion(shift(random), shift(random), yaw(random)) * pair.reference;
+      const double dx = shift(random), dy = shift(random), dyaw = yaw(random);
+      const Eigen::Matrix4d guess = test_data::planarMotion(dx, dy, dyaw) * pair.reference;
       pcl::PointCloud<pcl::PointXYZ> aligned;
       reg.align(aligned, guess.cast<float>());
       const auto e = pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(),
@@ -101,8 +101,11 @@ main(int argc, char** argv)
       else {
         ++wrong_optimum;
         std::lock_guard<std::mutex> lock(print);
-        std::printf("alignment %d converged to a wrong optimum: %.3f m, %.3f deg off\n", k,
-                    e.translation, e.rotation_deg);
+        // Enough to replay it: the pair and the guess's offset from the reference.
+        std::printf("alignment %d converged to a wrong optimum: %.3f m, %.3f deg off (pair %zu, "
+                    "guess = planarMotion(%.9g, %.9g, %.9g) * reference)\n",
+                    k, e.translation, e.rotation_deg, static_cast<std::size_t>(k) % pairs.size(),
+                    dx, dy, dyaw);
       }
       if (k == warm_up) {
         std::lock_guard<std::mutex> lock(print);
