@@ -507,6 +507,7 @@ printBias(const std::vector<Row>& rows,
           const std::vector<double>& bound)
 {
   bool header = false;
+  const int name_width = methodColumnWidth(methods);
   for (const auto& m : methods)
     for (const char* direction : {"forward", "backward"}) {
       std::vector<double> along, left, up;
@@ -524,12 +525,10 @@ printBias(const std::vector<Row>& rows,
       if (!header) {
         std::printf("\nMean signed translation error of the successful rows [%% of the "
                     "reference translation]\n%-*s %-9s %6s %9s %9s %9s\n",
-                    methodColumnWidth(methods), "method", "direction", "rows", "along", "left",
-                    "up");
+                    name_width, "method", "direction", "rows", "along", "left", "up");
         header = true;
       }
-      std::printf("%-*s %-9s %6zu %+9.3f %+9.3f %+9.3f\n", methodColumnWidth(methods),
-                  m.c_str(), direction,
+      std::printf("%-*s %-9s %6zu %+9.3f %+9.3f %+9.3f\n", name_width, m.c_str(), direction,
                   along.size(), mean(along), mean(left), mean(up));
     }
   if (header)
