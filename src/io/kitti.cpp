@@ -3,6 +3,8 @@
  */
 #include <pcl_mi/kitti.h>
 
+#include "io/file_checks.h"
+
 #include <Eigen/Geometry>
 
 #include <cstdio>
@@ -31,6 +33,9 @@ parseTwelve(const std::string& text, Eigen::Matrix4d& m)
 std::string
 loadCalibrationTr(const std::string& calib_path, Eigen::Matrix4d& tr)
 {
+  const std::string not_regular = io::detail::checkRegularFile(calib_path);
+  if (!not_regular.empty())
+    return not_regular;
   std::ifstream in(calib_path);
   if (!in)
     return "cannot open '" + calib_path + "'";
@@ -48,6 +53,9 @@ loadCalibrationTr(const std::string& calib_path, Eigen::Matrix4d& tr)
 std::string
 loadPoses(const std::string& poses_path, std::vector<Eigen::Matrix4d>& poses)
 {
+  const std::string not_regular = io::detail::checkRegularFile(poses_path);
+  if (!not_regular.empty())
+    return not_regular;
   std::ifstream in(poses_path);
   if (!in)
     return "cannot open '" + poses_path + "'";
