@@ -7,6 +7,7 @@
 #ifdef PCL_MI_WITH_OPENCL
 #include "backend/opencl_backend.h"
 #endif
+#include "core/input_checks.h"
 #include "core/mutual_information.h"
 #include "core/nelder_mead.h"
 #include "core/parallel.h"
@@ -53,6 +54,10 @@ parseBackend(const std::string& name, Backend& backend)
 }
 
 namespace {
+
+/** Most restarts: each costs at least one iteration of the budget, and more than this
+ * many searches around one optimum find nothing new. */
+constexpr int kMaxRestarts = 100;
 
 std::string
 validateBinning(const char* what, const FeatureBinning& b)
@@ -120,8 +125,8 @@ Parameters::validate() const
     s << "narrow-view position starts must be 0..360, got " << narrow_view_position_starts;
   else if (pyramid_levels < 1 || pyramid_levels > 8)
     s << "pyramid levels must be 1..8, got " << pyramid_levels;
-  else if (restarts < 0)
-    s << "restarts must not be negative, got " << restarts;
+  else if (restarts < 0 || restarts > kMaxRestarts)
+    s << "restarts must be 0.." << kMaxRestarts << ", got " << restarts;
   else if (backend != Backend::Cpu && backend != Backend::OpenCL && backend != Backend::Auto)
     s << "unknown backend " << static_cast<int>(backend);
   else if (refinement != Refinement::None && refinement != Refinement::PointToDistribution)
@@ -171,8 +176,9 @@ constexpr double kRefinementNoiseFraction = 0.05;
 constexpr double kRefinementMaxShift = 1.0;
 constexpr double kRefinementMaxTurnDeg = 5.0;
 
-/** Fewest finite points a cloud needs: MI over fewer occupied voxels says nothing. */
-constexpr std::size_t kMinimumPoints = 3;
+/** Share of a cloud's usable points whose loss as far outliers is worth a warning: a few
+ * stray returns are what the rule is for, a second site is not. */
+constexpr double kOutlierWarningShare = 0.01;
 
 struct RegistrationCore::Impl {
   Parameters parameters;
@@ -190,6 +196,8 @@ struct RegistrationCore::Impl {
     std::shared_ptr<const core::SourceSamples> samples;
   };
   std::vector<Level> levels;
+  /** Far-outlier warnings of the current target and source (see describeOutliers()). */
+  std::string target_warning, source_warning;
   /** The backend the levels use, resolved with the target. */
   bool use_opencl = false;
   std::string backend_name = "cpu", backend_warning;
@@ -237,6 +245,16 @@ struct RegistrationCore::Impl {
     if (new_target && !resolveBackend(error))
       return false;
 
+    // A resolution too fine for the clouds is named as such before the outlier gap, which
+    // follows it, would split them into fragments.
+    for (const auto& [is_new, input, which] :
+         {std::make_tuple(new_target, &target_input, "target"),
+          std::make_tuple(new_source, &source_input, "source")}) {
+      if (is_new)
+        error = core::resolutionError(*input, parameters.resolution, which);
+      if (!error.empty())
+        return false;
+    }
     // The local clouds first: everything else is built from them.
     const double gap = core::kOutlierGapVoxels * parameters.resolution;
     // Only the changed clouds are tasks, so a new source alone starts no thread.
@@ -247,14 +265,23 @@ struct RegistrationCore::Impl {
       local_tasks.emplace_back([&] { source = core::makeLocalCloud(source_input, gap); });
     core::parallelFor(static_cast<int>(local_tasks.size()), parameters.num_threads,
                       [&](int task) { local_tasks[static_cast<std::size_t>(task)](); });
-    if (target.points.size() < kMinimumPoints) {
+    if (target.points.size() < core::kMinimumPoints) {
       error = describeTooFew("target", target);
       return false;
     }
-    if (source.points.size() < kMinimumPoints) {
+    if (source.points.size() < core::kMinimumPoints) {
       error = describeTooFew("source", source);
       return false;
     }
+    error = core::structureError(target, parameters.resolution, "target");
+    if (error.empty())
+      error = core::structureError(source, parameters.resolution, "source");
+    if (!error.empty())
+      return false;
+    if (new_target)
+      target_warning = describeOutliers("target", target, gap);
+    if (new_source)
+      source_warning = describeOutliers("source", source, gap);
     if (new_target) {
       // Refuse a too-fine resolution up front: no coarser level needs more voxels.
       core::GridGeometry finest;
@@ -473,8 +500,23 @@ struct RegistrationCore::Impl {
     std::ostringstream s;
     s << "the " << which << " has " << cloud.points.size() << " usable points ("
       << cloud.non_finite << " non-finite, " << cloud.no_return << " at (0, 0, 0) and "
-      << cloud.outliers << " far outliers dropped); at least " << kMinimumPoints
+      << cloud.outliers << " far outliers dropped); at least " << core::kMinimumPoints
       << " are needed";
+    return s.str();
+  }
+
+  /** A warning when far outliers took more than kOutlierWarningShare of a cloud's usable
+   * points; empty otherwise. */
+  static std::string
+  describeOutliers(const char* which, const core::LocalCloud& cloud, double gap)
+  {
+    const std::size_t usable = cloud.points.size() + cloud.outliers;
+    if (static_cast<double>(cloud.outliers) <= kOutlierWarningShare * static_cast<double>(usable))
+      return {};
+    std::ostringstream s;
+    s << "dropped " << cloud.outliers << " of the " << which << "'s " << usable
+      << " usable points as far outliers: they lie beyond an empty gap of at least " << gap
+      << " (64 voxels) from its largest group of points along x, y or z";
     return s.str();
   }
 
@@ -666,8 +708,9 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
 {
   AlignmentResult result;
   result.transformation = guess;
-  if (!guess.allFinite()) {
-    result.error = "the initial guess is not finite";
+  const std::string guess_error = core::rigidTransformError(guess);
+  if (!guess_error.empty()) {
+    result.error = "the initial guess " + guess_error;
     return result;
   }
   Impl& d = *impl_;
@@ -681,6 +724,9 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
   };
   if (!d.prepare(result.error))
     return result;
+  for (const std::string* warning : {&d.target_warning, &d.source_warning})
+    if (!warning->empty())
+      result.warnings.push_back(*warning);
   endStage("prepare", 1);
 
   JointHistogram& histogram = d.scratch;
@@ -919,9 +965,14 @@ RegistrationCore::align(const Eigen::Matrix4d& guess)
       scale *= 0.5;
     endSearchStage(levelName(level));
   }
-  for (int k = 0; k < p.restarts && budget > 0; ++k)
-    account(search(level, *d.level(level).backend, best.x,
-                   (k % 2 ? scale : -scale) * steps, budget));
+  for (int k = 0; k < p.restarts && budget > 0; ++k) {
+    const core::NelderMeadResult restart =
+        search(level, *d.level(level).backend, best.x, (k % 2 ? scale : -scale) * steps, budget);
+    account(restart);
+    // A restart that starts inside the tolerance takes no iteration; it still costs one, so
+    // that the budget ends the loop.
+    budget -= restart.iterations == 0 ? 1 : 0;
+  }
   if (p.restarts > 0)
     endSearchStage("restarts");
 

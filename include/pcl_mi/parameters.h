@@ -150,7 +150,7 @@ struct Parameters {
   /** Number of restarts around the best vertex on the finest searched level, each with
    * that level's steps, alternating in sign. Without a refinement, 2 restarts lift the
    * search out of the local optima the voxel quantisation scatters near the peak. */
-  int restarts = 0;
+  int restarts = 0; ///< 0..100; each costs at least one iteration of max_iterations
   /** Scale, relative to simplex_steps, of the simplex with which the second-coarsest level
    * refines the coarsest level's optimum; each finer level halves it. */
   double restart_scale = 0.25;
@@ -253,6 +253,9 @@ struct AlignmentResult {
   double mutual_information = 0.0;
   /** Empty on success, otherwise why the alignment failed. */
   std::string error;
+  /** What the caller should know that did not stop the alignment (e.g. a large share of a
+   * cloud dropped as far outliers); the PCL adapter prints each with PCL_WARN. */
+  std::vector<std::string> warnings;
   /** Where the time went, stage by stage in the order they ran. Concurrent searches are
    * one stage; its time is wall-clock. */
   std::vector<StageTiming> stages;

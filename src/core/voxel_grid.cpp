@@ -13,14 +13,19 @@ namespace core {
 
 namespace {
 
-/** Values of one axis sampled for its median: the median only anchors the walk in
- * bulkRange(), any value inside the bulk does, and a strided sample finds it without a
- * selection over every point. */
+/** Values of one axis sampled for its median: the median only anchors the cells in
+ * bulkRange(), and a strided sample finds it without a selection over every point. */
 constexpr std::size_t kMedianSamples = 4096;
 
-/** Inclusive [low, high] range of axis \a axis of \a points holding the bulk of the values:
- * walking out from the median in cells of width \a gap, the range ends at the first empty
- * cell. */
+/** Cells of half a gap on either side of the median that bulkRange() looks at: points
+ * further out (2048 gaps: 131 km at 1 m voxels) are outliers whatever lies between. */
+constexpr long kHalfGapCells = 4096;
+
+/** [low, high] of axis \a axis: the values of the largest group of \a points, where groups
+ * are split wherever two consecutive values (in sorted order) are at least \a gap apart.
+ * Exact without sorting: values are put in cells of half a gap, which keep their count,
+ * minimum and maximum; values in the same or neighbouring cells are less than a gap apart,
+ * and across empty cells the gap is the next cell's minimum minus the last one's maximum. */
 void
 bulkRange(const PointList& points, int axis, double gap, double& low, double& high)
 {
@@ -32,23 +37,40 @@ bulkRange(const PointList& points, int axis, double gap, double& low, double& hi
   auto mid = sample.begin() + sample.size() / 2;
   std::nth_element(sample.begin(), mid, sample.end());
   const double median = *mid;
-  // Cells beyond this many gaps are outliers however the walk goes; the bound also keeps
-  // the cell bookkeeping small for absurd coordinates.
-  constexpr long kMaxCells = 1 << 16;
-  std::vector<bool> occupied(2 * kMaxCells + 1, false);
-  const double inv_gap = 1.0 / gap;
+  struct Cell {
+    std::size_t count = 0;
+    float min = 0.0f, max = 0.0f;
+  };
+  std::vector<Cell> cells(2 * kHalfGapCells + 1);
+  const double inv_width = 2.0 / gap;
   for (const auto& p : points) {
-    const double k = std::floor((p[axis] - median) * inv_gap);
-    if (std::abs(k) <= kMaxCells)
-      occupied[static_cast<std::size_t>(k + kMaxCells)] = true;
+    const double k = std::floor((p[axis] - median) * inv_width);
+    if (!(std::abs(k) <= kHalfGapCells))
+      continue;
+    Cell& c = cells[static_cast<std::size_t>(k + kHalfGapCells)];
+    c.min = c.count ? std::min(c.min, p[axis]) : p[axis];
+    c.max = c.count ? std::max(c.max, p[axis]) : p[axis];
+    ++c.count;
   }
-  long lo = 0, hi = 0;
-  while (lo > -kMaxCells && occupied[static_cast<std::size_t>(lo - 1 + kMaxCells)])
-    --lo;
-  while (hi < kMaxCells && occupied[static_cast<std::size_t>(hi + 1 + kMaxCells)])
-    ++hi;
-  low = median + lo * gap;
-  high = median + (hi + 1) * gap;
+  // The groups in order; the first of equally large ones wins.
+  std::size_t best = 0, current = 0;
+  double group_low = 0.0, last_max = 0.0;
+  low = high = median;
+  for (const Cell& c : cells) {
+    if (c.count == 0)
+      continue;
+    if (current > 0 && static_cast<double>(c.min) - last_max >= gap)
+      current = 0;
+    if (current == 0)
+      group_low = c.min;
+    current += c.count;
+    last_max = c.max;
+    if (current > best) {
+      best = current;
+      low = group_low;
+      high = last_max;
+    }
+  }
 }
 
 } // namespace
@@ -89,7 +111,7 @@ makeLocalCloud(const PointList& points, double outlier_gap)
   std::size_t count = 0;
   for (const auto& p : kept) {
     const Eigen::Vector3d pd = p.cast<double>();
-    if ((pd.array() < low.array()).any() || (pd.array() >= high.array()).any())
+    if ((pd.array() < low.array()).any() || (pd.array() > high.array()).any())
       continue;
     kept[count++] = p;
     sum += pd;

@@ -46,10 +46,12 @@ double
 azimuthCoverageDegrees(const PointList& points);
 
 /** \brief Drops non-finite points and points at exactly (0, 0, 0) (the no-return marker of
- * many drivers), then points cut off from the bulk of the cloud along
- * some axis by an empty gap of at least \a outlier_gap, and re-centres the rest on their
- * centroid (computed in double, so coordinates of 1e6 m keep their sub-millimetre detail
- * relative to each other). */
+ * many drivers), then far outliers, and re-centres the rest on their centroid (computed in
+ * double, so coordinates of 1e6 m keep their sub-millimetre detail relative to each other).
+ *
+ * Far outliers: along each axis the points fall into groups wherever two consecutive
+ * coordinates are at least \a outlier_gap apart; a point outside the largest group of any
+ * axis is dropped (as is one more than 2048 gaps from the axis's median). */
 LocalCloud
 makeLocalCloud(const PointList& points, double outlier_gap);
 
