@@ -9,6 +9,7 @@
 
 #include <pcl/registration/registration.h>
 
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -65,6 +66,34 @@ public:
   /** \brief Paper defaults: 1 m voxels, VarianceZ, simplex [8, 8, 1 m, 0.1, 0.1, 0.8 rad]. */
   MutualInformationRegistration();
   ~MutualInformationRegistration() override;
+
+  /** \brief Aligns the source onto the target, starting from the identity. */
+  void
+  align(PointCloudSource& output)
+  {
+    align(output, Matrix4::Identity());
+  }
+
+  /** \brief Aligns the source onto the target, starting from \a guess (source to target).
+   *
+   * Every call starts from a clean result: where it cannot run (no source or target, an
+   * index out of range of the source) hasConverged() is false, getFinalTransformation() is
+   * \a guess and getLastError() says why, unlike pcl::Registration::align(), which returns
+   * early and leaves the previous result in place. (Called through a pcl::Registration
+   * reference, the base class's align() runs, with its behaviour.) */
+  void
+  align(PointCloudSource& output, const Matrix4& guess);
+
+  /** \brief Mean squared distance from the source under getFinalTransformation() to the
+   * nearest target point, over the pairs closer than \a max_range, as PCL's. Non-finite
+   * points and points beyond 1e15 in any coordinate are left out of the search (FLANN
+   * aborts on them); without a source or target, or with no pair in range, returns
+   * std::numeric_limits<double>::max() (with PCL_ERROR for missing clouds). */
+  double
+  getFitnessScore(double max_range = std::numeric_limits<double>::max());
+  using Base::getFitnessScore;
+
+  using Base::getClassName;
 
   /** \brief Source cloud (transformed onto the target). Honours setIndices(). */
   void
@@ -316,7 +345,6 @@ public:
 protected:
   using Base::converged_;
   using Base::final_transformation_;
-  using Base::getClassName;
   using Base::indices_;
   using Base::input_;
   using Base::max_iterations_;
@@ -348,9 +376,15 @@ private:
   }
 
   /** Hands the source points selected by indices_ (all when unset) to the core. Done at
-   * every align() because PCL lets indices change between calls without notice. */
-  void
+   * every align() because PCL lets indices change between calls without notice. Returns
+   * why not when an index is out of range of the source (nothing is handed over then). */
+  std::string
   updateSource();
+
+  /** Why align() cannot run with the inputs as they are (no target, no source, an index
+   * out of range); empty when it can. */
+  std::string
+  inputError() const;
 
   /** Identity of the source last handed to the core (cloud, indices), for evaluate(). */
   struct ConvertedSource {

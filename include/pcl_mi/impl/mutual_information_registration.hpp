@@ -9,6 +9,10 @@
 #include <pcl/console/print.h>
 #include <pcl/search/kdtree.h>
 
+#include <cmath>
+#include <limits>
+#include <string>
+
 namespace pcl_mi {
 namespace detail {
 
@@ -18,6 +22,18 @@ namespace detail {
  * registration never searches it: only getFitnessScore() does. Building a FLANN tree over
  * a 120k-point scan costs about as much as a whole alignment, so it is deferred until
  * someone asks. Not safe for concurrent first queries (neither is the base class). */
+/** \brief Largest coordinate magnitude a k-d tree query or point may have: FLANN's
+ * squared distances overflow beyond it and its assertions abort the process. */
+constexpr float kMaxSearchCoordinate = 1e15f;
+
+template <typename PointT>
+bool
+isSearchable(const PointT& p)
+{
+  return std::abs(p.x) <= kMaxSearchCoordinate && std::abs(p.y) <= kMaxSearchCoordinate &&
+         std::abs(p.z) <= kMaxSearchCoordinate; // false for NaN too
+}
+
 template <typename PointT>
 class LazyKdTree : public pcl::search::KdTree<PointT> {
 public:
@@ -43,6 +59,11 @@ public:
                  std::vector<float>& k_sqr_distances) const override
   {
     build();
+    if (searchable_ == 0 || !isSearchable(point)) {
+      k_indices.clear();
+      k_sqr_distances.clear();
+      return 0;
+    }
     return Base::nearestKSearch(point, k, k_indices, k_sqr_distances);
   }
 
@@ -54,20 +75,37 @@ public:
                unsigned int max_nn = 0) const override
   {
     build();
+    if (searchable_ == 0 || !isSearchable(point)) {
+      k_indices.clear();
+      k_sqr_distances.clear();
+      return 0;
+    }
     return Base::radiusSearch(point, radius, k_indices, k_sqr_distances, max_nn);
   }
 
 private:
+  /** Builds the tree over the searchable points (of indices_, when given). */
   void
   build() const
   {
     if (built_ || !this->input_)
       return;
-    const_cast<LazyKdTree*>(this)->Base::setInputCloud(this->input_, this->indices_);
     built_ = true;
+    auto searchable = pcl::make_shared<pcl::Indices>();
+    const std::size_t n = this->indices_ ? this->indices_->size() : this->input_->size();
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto i = this->indices_ ? (*this->indices_)[k] : static_cast<pcl::index_t>(k);
+      if (i >= 0 && static_cast<std::size_t>(i) < this->input_->size() &&
+          isSearchable((*this->input_)[static_cast<std::size_t>(i)]))
+        searchable->push_back(i);
+    }
+    searchable_ = searchable->size();
+    if (searchable_ > 0)
+      const_cast<LazyKdTree*>(this)->Base::setInputCloud(this->input_, searchable);
   }
 
   mutable bool built_ = false;
+  mutable std::size_t searchable_ = 0;
 };
 
 } // namespace detail
@@ -131,16 +169,19 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setInputTarget(
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
-void
+std::string
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::updateSource()
 {
-  converted_source_ = {input_.get(), indices_.get(), indices_ ? indices_->size() : 0};
+  converted_source_ = ConvertedSource{};
   pcl_mi::PointList points;
   if (input_) {
     if (indices_) {
       points.reserve(indices_->size());
       for (const auto i : *indices_) {
-        const PointSource& p = (*input_)[i];
+        if (i < 0 || static_cast<std::size_t>(i) >= input_->size())
+          return "index " + std::to_string(i) + " is out of range of the source's " +
+                 std::to_string(input_->size()) + " points (setIndices)";
+        const PointSource& p = (*input_)[static_cast<std::size_t>(i)];
         points.emplace_back(p.x, p.y, p.z);
       }
     }
@@ -151,6 +192,82 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::updateSource()
     }
   }
   core_.setSource(std::move(points));
+  converted_source_ = {input_.get(), indices_.get(), indices_ ? indices_->size() : 0};
+  return {};
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+std::string
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::inputError() const
+{
+  if (!target_)
+    return "no target cloud was given (setInputTarget)";
+  if (!input_)
+    return "no source cloud was given (setInputSource)";
+  // The base class's align() copies the source through the indices before anything else.
+  if (indices_ && !this->fake_indices_)
+    for (const auto i : *indices_)
+      if (i < 0 || static_cast<std::size_t>(i) >= input_->size())
+        return "index " + std::to_string(i) + " is out of range of the source's " +
+               std::to_string(input_->size()) + " points (setIndices)";
+  return {};
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::align(
+    PointCloudSource& output, const Matrix4& guess)
+{
+  converged_ = false;
+  nr_iterations_ = 0;
+  result_ = pcl_mi::AlignmentResult();
+  result_.transformation = guess.template cast<double>();
+  final_transformation_ = transformation_ = previous_transformation_ = guess;
+  const std::string refused = inputError();
+  if (refused.empty()) {
+    Base::align(output, guess);
+    return;
+  }
+  result_.error = refused;
+  PCL_ERROR("[pcl::%s::align] %s.\n", getClassName().c_str(), refused.c_str());
+  output.clear();
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+double
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::getFitnessScore(
+    double max_range)
+{
+  if (!input_ || !target_ || input_->empty() || target_->empty()) {
+    PCL_ERROR("[pcl::%s::getFitnessScore] needs a source and a target cloud.\n",
+              getClassName().c_str());
+    return std::numeric_limits<double>::max();
+  }
+  // The search tree is the base class's (built lazily); before the first align() it has
+  // not been handed the target yet.
+  if (tree_->getInputCloud() != target_)
+    tree_->setInputCloud(target_);
+  pcl::Indices nearest(1);
+  std::vector<float> squared(1);
+  double sum = 0.0;
+  std::size_t pairs = 0;
+  const Eigen::Transform<Scalar, 3, Eigen::Affine> pose(final_transformation_);
+  for (const auto& p : *input_) {
+    PointSource moved = p;
+    moved.getVector3fMap() =
+        (pose * p.getVector3fMap().template cast<Scalar>()).template cast<float>();
+    if (!pcl_mi::detail::isSearchable(moved))
+      continue;
+    PointTarget query;
+    query.x = moved.x;
+    query.y = moved.y;
+    query.z = moved.z;
+    if (tree_->nearestKSearch(query, 1, nearest, squared) == 1 && squared[0] <= max_range) {
+      sum += squared[0];
+      ++pairs;
+    }
+  }
+  return pairs > 0 ? sum / static_cast<double>(pairs) : std::numeric_limits<double>::max();
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -329,9 +446,13 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::evaluate(
 {
   // Cost surfaces call this thousands of times: convert the source only when it changed.
   const ConvertedSource current{input_.get(), indices_.get(), indices_ ? indices_->size() : 0};
-  if (!(current == converted_source_))
-    updateSource();
   std::string error;
+  if (!(current == converted_source_))
+    error = updateSource();
+  if (!error.empty()) {
+    PCL_ERROR("[pcl::%s::evaluate] %s.\n", getClassName().c_str(), error.c_str());
+    return -1.0;
+  }
   const double mi = core_.evaluate(pose.template cast<double>(), &error);
   if (!error.empty())
     PCL_ERROR("[pcl::%s::evaluate] %s.\n", getClassName().c_str(), error.c_str());
@@ -348,11 +469,19 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
   result_ = pcl_mi::AlignmentResult();
   final_transformation_ = guess;
 
-  if (!applyParameters(getParameters(), "computeTransformation")) {
-    result_.error = "invalid parameters";
+  // setMaximumIterations() is the base class's and cannot refuse a value: checked here.
+  const std::string invalid = getParameters().validate();
+  const std::string source_error = invalid.empty() ? updateSource() : std::string();
+  if (!invalid.empty()) {
+    result_.error = "invalid parameters: " + invalid;
+    if (max_iterations_ < 1)
+      result_.error += " (setMaximumIterations)";
+  }
+  else if (!source_error.empty()) {
+    result_.error = source_error;
   }
   else {
-    updateSource();
+    core_.setParameters(getParameters());
     try {
       result_ = core_.align(guess.template cast<double>());
     }
@@ -362,6 +491,8 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
       result_.error = std::string("internal error: ") + e.what();
     }
   }
+  for (const std::string& warning : result_.warnings)
+    PCL_WARN("[pcl::%s::computeTransformation] %s.\n", getClassName().c_str(), warning.c_str());
 
   if (!core_.backendWarning().empty() && core_.backendWarning() != warned_) {
     warned_ = core_.backendWarning();
