@@ -9,6 +9,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <exception>
+#include <new>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -69,6 +72,28 @@ kittiPosesPath(const std::string& root, const std::string& sequence, const std::
   if (kind == "auto")
     return std::ifstream(semantic).good() ? semantic : gt;
   return "";
+}
+
+/** The one exception boundary of an app: runs \a body and returns its exit code; whatever
+ * escapes it (out of memory, PCL's IOException on an unwritable file, ...) becomes one line
+ * on stderr and exit code 1, instead of "terminate called" and SIGABRT. */
+template <typename Body>
+int
+guardedMain(const char* app, Body&& body)
+{
+  try {
+    return body();
+  }
+  catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "%s: out of memory\n", app);
+  }
+  catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", app, e.what());
+  }
+  catch (...) {
+    std::fprintf(stderr, "%s: unknown error\n", app);
+  }
+  return 1;
 }
 
 } // namespace apps

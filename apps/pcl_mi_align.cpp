@@ -164,10 +164,8 @@ showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
 #endif
 }
 
-} // namespace
-
 int
-main(int argc, char** argv)
+run(int argc, char** argv)
 {
   if (argc < 3 || pcl::console::find_switch(argc, argv, "-h") ||
       pcl::console::find_switch(argc, argv, "--help")) {
@@ -367,7 +365,14 @@ main(int argc, char** argv)
   registration.reset();
   if (!show)
     source.reset();
-  if (pcl::io::savePCDFileBinary(aligned_path, aligned) < 0) {
+  // PCL's writer throws pcl::IOException on a path it cannot open.
+  bool written = false;
+  try {
+    written = pcl::io::savePCDFileBinary(aligned_path, aligned) >= 0;
+  }
+  catch (const std::exception&) {
+  }
+  if (!written) {
     print_error("pcl_mi_align: cannot write '%s'\n", aligned_path.c_str());
     return 1;
   }
@@ -397,4 +402,12 @@ main(int argc, char** argv)
   print_value("%s", merged_path.c_str());
   print_info(" (view: pcl_viewer %s)\n", merged_path.c_str());
   return converged ? 0 : 3;
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  return pcl_mi::apps::guardedMain("pcl_mi_align", [&] { return run(argc, argv); });
 }

@@ -115,10 +115,8 @@ struct Row {
   std::string backend_name;
 };
 
-} // namespace
-
 int
-main(int argc, char** argv)
+run(int argc, char** argv)
 {
   std::string root = "data/kitti", pairs_arg = "00:0:9,02:0:6", poses_kind = "auto";
   std::string backends_arg = "cpu,opencl", configs_arg = "default,paper", device_arg;
@@ -438,4 +436,12 @@ main(int argc, char** argv)
     return 2;
   }
   return 0;
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  return pcl_mi::apps::guardedMain("pcl_mi_backend_bench", [&] { return run(argc, argv); });
 }

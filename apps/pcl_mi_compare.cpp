@@ -661,10 +661,8 @@ printHelp(const char* program)
       program);
 }
 
-} // namespace
-
 int
-main(int argc, char** argv)
+run(int argc, char** argv)
 {
   if (pcl::console::find_switch(argc, argv, "-h") || argc < 2) {
     printHelp(argv[0]);
@@ -962,4 +960,12 @@ main(int argc, char** argv)
   }
   printTables(rows, methods, success);
   return 0;
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  return pcl_mi::apps::guardedMain("pcl_mi_compare", [&] { return run(argc, argv); });
 }

@@ -4,6 +4,8 @@
  * reference, and MI versus heading next to GICP's objective versus heading.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "app_util.h"
+
 #include <pcl_mi/io.h>
 #include <pcl_mi/mutual_information_registration.h>
 
@@ -81,10 +83,8 @@ gicpCost(const Eigen::Matrix4d& pose, const Cloud::ConstPtr& source,
   return matched ? sum / matched : NAN;
 }
 
-} // namespace
-
 int
-main(int argc, char** argv)
+run(int argc, char** argv)
 {
   if (argc < 4 || pcl::console::find_switch(argc, argv, "-h")) {
     print_info(
@@ -236,4 +236,12 @@ main(int argc, char** argv)
   print_info("Wrote %s_xy.csv and %s_yaw.csv (plot: pcl_mi_plot_cost_surface.py %s)\n",
              prefix.c_str(), prefix.c_str(), prefix.c_str());
   return 0;
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  return pcl_mi::apps::guardedMain("pcl_mi_cost_surface", [&] { return run(argc, argv); });
 }
