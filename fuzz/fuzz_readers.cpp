@@ -1,7 +1,11 @@
 /*
  * libFuzzer target: the cloud readers (PCD, PLY, KITTI .bin) on arbitrary bytes. The first
- * byte picks the format; the rest is the file. Any input must give a cloud or an error
- * message, never a crash, hang or unbounded allocation.
+ * byte picks the mode: raw bytes as a .pcd, .ply or .bin file, or a structured PCD or PLY
+ * whose header fields (sizes, counts, widths, list properties) are drawn from the input, so
+ * that size arithmetic and list lengths are mutated directly rather than found by chance
+ * (docs/hardening.md, classes 1, 2, 4 and 13). Any input must give a cloud or an error
+ * message, never a crash, hang or unbounded allocation. fuzz/pcd_ply.dict holds the formats'
+ * keywords for the raw modes.
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_mi/io.h>
@@ -9,20 +13,121 @@
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <unistd.h>
+
+namespace {
+
+/** Reads the input front to back; zeros once it runs out. */
+struct Bytes {
+  const std::uint8_t* data;
+  std::size_t size, pos = 0;
+
+  std::uint8_t
+  byte()
+  {
+    return pos < size ? data[pos++] : 0;
+  }
+  /** Mostly small values, sometimes large ones and the edges of 32 bits. */
+  std::uint64_t
+  count()
+  {
+    const std::uint8_t kind = byte();
+    const std::uint32_t v = byte() | (byte() << 8) | (byte() << 16) | (std::uint32_t{byte()} << 24);
+    switch (kind % 8) {
+    case 0:
+      return 0;
+    case 1:
+      return v; // up to 2^32 - 1
+    case 2:
+      return std::uint64_t{1} << (v % 40);
+    case 3:
+      return (v & 0xffff) + 1;
+    default:
+      return kind % 16 + 1;
+    }
+  }
+  std::string
+  rest()
+  {
+    const std::string s(reinterpret_cast<const char*>(data + pos), size - pos);
+    pos = size;
+    return s;
+  }
+};
+
+std::string
+structuredPcd(Bytes& in)
+{
+  static const char* const kData[] = {"ascii", "binary", "binary_compressed"};
+  static const char* const kNames[] = {"x", "y", "z", "intensity", "_", "rgb", "normal_x"};
+  static const char kTypes[] = {'F', 'I', 'U'};
+  static const int kSizes[] = {1, 2, 4, 8};
+  std::ostringstream s;
+  for (int c = in.byte() % 4; c > 0; --c)
+    s << "# comment " << c << "\n";
+  const int fields = 1 + in.byte() % 7;
+  std::ostringstream names, sizes, types, counts;
+  for (int f = 0; f < fields; ++f) {
+    names << " " << kNames[(f < 3 && in.byte() % 8) ? f : in.byte() % 7];
+    sizes << " " << kSizes[in.byte() % 4];
+    types << " " << kTypes[in.byte() % 3];
+    counts << " " << in.count();
+  }
+  const std::uint64_t width = in.count(), height = 1 + in.byte() % 3;
+  s << "VERSION 0.7\nFIELDS" << names.str() << "\nSIZE" << sizes.str() << "\nTYPE" << types.str()
+    << "\nCOUNT" << counts.str() << "\nWIDTH " << width << "\nHEIGHT " << height
+    << "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << (in.byte() % 8 ? width * height : in.count())
+    << "\nDATA " << kData[in.byte() % 3] << "\n";
+  return s.str() + in.rest();
+}
+
+std::string
+structuredPly(Bytes& in)
+{
+  static const char* const kFormats[] = {"ascii", "binary_little_endian", "binary_big_endian"};
+  static const char* const kTypes[] = {"char", "uchar", "short", "ushort", "int",
+                                       "uint", "float", "double", "int8", "float64"};
+  std::ostringstream s;
+  s << "ply\nformat " << kFormats[in.byte() % 3] << " 1.0\ncomment structured\n";
+  auto properties = [&](bool vertex) {
+    const int n = (vertex ? 3 : 0) + in.byte() % 4;
+    for (int p = 0; p < n; ++p) {
+      const char* name = vertex && p < 3 ? (p == 0 ? "x" : p == 1 ? "y" : "z") : "extra";
+      if (in.byte() % 4 == 0)
+        s << "property list " << kTypes[in.byte() % 6] << " " << kTypes[in.byte() % 10] << " "
+          << name << "\n";
+      else
+        s << "property " << kTypes[in.byte() % 10] << " " << name << "\n";
+    }
+  };
+  if (in.byte() % 2) {
+    s << "element face " << in.count() << "\n";
+    properties(false);
+  }
+  s << "element vertex " << in.count() << "\n";
+  properties(true);
+  s << "end_header\n";
+  return s.str() + in.rest();
+}
+
+} // namespace
 
 extern "C" int
 LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {
   if (size < 1)
     return 0;
-  static const char* const kExtensions[] = {".pcd", ".ply", ".bin"};
-  const std::string path = "/tmp/pcl_mi_fuzz_reader_" + std::to_string(getpid()) +
-                           kExtensions[data[0] % 3];
+  static const char* const kExtensions[] = {".pcd", ".ply", ".bin", ".pcd", ".ply"};
+  const int mode = data[0] % 5;
+  const std::string path =
+      "/tmp/pcl_mi_fuzz_reader_" + std::to_string(getpid()) + kExtensions[mode];
+  Bytes in{data + 1, size - 1};
+  const std::string bytes = mode == 3 ? structuredPcd(in) : mode == 4 ? structuredPly(in) : in.rest();
   {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   }
   pcl::PointCloud<pcl::PointXYZI> cloud;
   const std::string error = pcl_mi::io::loadCloud(path, cloud);

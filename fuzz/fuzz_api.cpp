@@ -1,0 +1,160 @@
+/*
+ * libFuzzer target: sequences of calls on pcl::MutualInformationRegistration as a user of
+ * the PCL contract makes them: clouds set, replaced, cleared or nulled, indices in and out
+ * of range, setters with any value, align() with rigid and non-rigid guesses,
+ * getFitnessScore() and evaluate() at any moment (docs/hardening.md, classes 5, 6, 7, 9,
+ * 10, 11 and 12). Invariants: no crash, no hang; a result that says converged has no error;
+ * a failed align() leaves the guess as the final transformation and says why.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_mi/mutual_information_registration.h>
+
+#include <pcl/console/print.h>
+
+#include <cfloat>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using Registration = pcl::MutualInformationRegistration<pcl::PointXYZ>;
+
+struct Bytes {
+  const std::uint8_t* data;
+  std::size_t size, pos = 0;
+
+  std::uint8_t
+  byte()
+  {
+    return pos < size ? data[pos++] : 0;
+  }
+  bool
+  empty() const
+  {
+    return pos >= size;
+  }
+  float
+  coordinate()
+  {
+    switch (const std::uint8_t kind = byte()) {
+    case 0xff:
+      return std::numeric_limits<float>::quiet_NaN();
+    case 0xfe:
+      return FLT_MAX;
+    case 0xfd:
+      return 1e30f;
+    default:
+      return static_cast<float>(static_cast<std::int16_t>(kind | (byte() << 8))) * 0.01f;
+    }
+  }
+};
+
+Cloud::Ptr
+makeCloud(Bytes& in)
+{
+  switch (in.byte() % 8) {
+  case 0:
+    return nullptr;
+  case 1:
+    return pcl::make_shared<Cloud>();
+  default: {
+    auto cloud = pcl::make_shared<Cloud>();
+    const int n = 1 + in.byte() % 200;
+    for (int i = 0; i < n && !in.empty(); ++i)
+      cloud->push_back(pcl::PointXYZ(in.coordinate(), in.coordinate(), in.coordinate()));
+    return cloud;
+  }
+  }
+}
+
+Eigen::Matrix4f
+makeGuess(Bytes& in)
+{
+  Eigen::Matrix4f guess = Eigen::Matrix4f::Identity();
+  switch (in.byte() % 6) {
+  case 0:
+    break;
+  case 1:
+    return Eigen::Matrix4f::Zero();
+  case 2:
+    guess.topLeftCorner<3, 3>() *= 1.0f + 0.01f * in.byte();
+    break;
+  case 3:
+    guess(3, 0) = 0.5f;
+    break;
+  default:
+    guess.topLeftCorner<3, 3>() =
+        Eigen::AngleAxisf(0.05f * in.byte(), Eigen::Vector3f(in.coordinate(), 1.0f, in.coordinate())
+                                                 .normalized())
+            .toRotationMatrix();
+    guess.topRightCorner<3, 1>() << in.coordinate(), in.coordinate(), in.coordinate();
+  }
+  return guess;
+}
+
+} // namespace
+
+extern "C" int
+LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
+{
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  Bytes in{data, size};
+  Registration reg;
+  reg.setMaximumIterations(30); // bounded work per input
+  Cloud::Ptr source;
+  for (int step = 0; step < 12 && !in.empty(); ++step) {
+    switch (in.byte() % 10) {
+    case 0:
+      source = makeCloud(in);
+      reg.setInputSource(source);
+      break;
+    case 1:
+      reg.setInputTarget(makeCloud(in));
+      break;
+    case 2: {
+      auto indices = pcl::make_shared<pcl::Indices>();
+      const int n = in.byte() % 50;
+      for (int i = 0; i < n; ++i)
+        indices->push_back(static_cast<pcl::index_t>(in.byte()) - 5);
+      reg.setIndices(indices);
+      break;
+    }
+    case 3:
+      reg.setMaximumIterations(static_cast<int>(in.byte() % 40) - 2);
+      break;
+    case 4: {
+      const std::uint8_t r = in.byte();
+      reg.setResolution(r < 240 ? 0.05 * (1 + r) : static_cast<double>(in.coordinate()));
+      break;
+    }
+    case 5:
+      reg.setNumberOfRestarts(in.byte() % 2 ? in.byte() % 8 : std::numeric_limits<int>::max());
+      break;
+    case 6: {
+      const Eigen::Matrix4f guess = makeGuess(in);
+      Cloud output;
+      reg.align(output, guess);
+      if (reg.hasConverged() && !reg.getLastError().empty())
+        __builtin_trap();
+      if (!reg.getLastError().empty() && !(reg.getFinalTransformation() == guess))
+        __builtin_trap();
+      if (reg.getLastError().empty() && !reg.getFinalTransformation().allFinite())
+        __builtin_trap();
+      break;
+    }
+    case 7:
+      (void)reg.getFitnessScore();
+      break;
+    case 8:
+      (void)reg.evaluate(makeGuess(in));
+      break;
+    default: {
+      const double s = in.byte() % 2 ? 1e-7 : 1.0;
+      reg.setSimplexSteps((Registration::Vector6d() << s, s, s, 0.1 * s, 0.1 * s, s).finished());
+    }
+    }
+  }
+  return 0;
+}
