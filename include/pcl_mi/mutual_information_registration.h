@@ -42,8 +42,9 @@ namespace pcl {
  *
  * Points with non-finite coordinates are skipped, and so are points at exactly (0, 0, 0)
  * in the cloud's own frame: many drivers write a beam without a return there instead of
- * NaN. Points cut off from the rest of a cloud by an empty gap of at least 64 voxels along
- * an axis are dropped as outliers.
+ * NaN. Far outliers are dropped: along each axis, points outside the largest group of
+ * coordinates, where groups are parted by empty gaps of 64 voxels or more
+ * (docs/hardening.md); a loss of more than 1 % of a cloud is warned about.
  *
  * \note Not thread-safe; use one object per thread.
  */
