@@ -15,7 +15,8 @@ flags=(-std=c++17 -O3 -DNDEBUG -DPCL_MI_WITH_OPENCL=1 -Iinclude -Isrc $eigen -pt
 objs=()
 pids=()
 for src in src/registration_core.cpp src/core/*.cpp src/backend/cpu_backend.cpp \
-           src/backend/opencl_backend.cpp src/io/kitti.cpp apps/pcl_mi_backend_bench.cpp \
+           src/backend/opencl_backend.cpp src/io/kitti.cpp src/io/file_checks.cpp \
+           apps/pcl_mi_backend_bench.cpp \
            "$out/joint_histogram_kernel.cpp"; do
   obj="$out/$(basename "${src%.cpp}").o"
   extra=()

@@ -515,8 +515,8 @@ struct RegistrationCore::Impl {
       return {};
     std::ostringstream s;
     s << "dropped " << cloud.outliers << " of the " << which << "'s " << usable
-      << " usable points as far outliers: they lie beyond an empty gap of at least " << gap
-      << " (64 voxels) from its largest group of points along x, y or z";
+      << " usable points as far outliers: an empty gap of " << gap
+      << " (64 voxels) or more parts them from its largest group of points along x, y or z";
     return s.str();
   }
 
