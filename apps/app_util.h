@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <initializer_list>
 #include <exception>
 #include <new>
 #include <fstream>
@@ -72,6 +74,53 @@ kittiPosesPath(const std::string& root, const std::string& sequence, const std::
   if (kind == "auto")
     return std::ifstream(semantic).good() ? semantic : gt;
   return "";
+}
+
+/** What follows a command-line option. */
+enum class OptionValue { None, Number, Numbers, Text };
+
+/** A command-line option an app knows. */
+struct Option {
+  const char* name;
+  OptionValue value;
+};
+
+/** Empty when every argument after the first \a positional ones is a known option followed
+ * by a value of the right kind; otherwise a one-line reason naming the first that is not
+ * (a misspelled option would otherwise be ignored, and the run go on with a default). */
+inline std::string
+checkOptions(int argc, char** argv, int positional, std::initializer_list<Option> options)
+{
+  auto isNumber = [](const std::string& word) {
+    char* end = nullptr;
+    std::strtod(word.c_str(), &end);
+    return !word.empty() && end == word.c_str() + word.size();
+  };
+  for (int i = 1 + positional; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const Option* known = nullptr;
+    for (const Option& o : options)
+      if (arg == o.name)
+        known = &o;
+    if (!known)
+      return "unknown option '" + arg + "' (-h lists the options)";
+    if (known->value == OptionValue::None)
+      continue;
+    if (i + 1 >= argc)
+      return "option " + arg + " needs a value";
+    const std::string value = argv[++i];
+    bool ok = true;
+    if (known->value == OptionValue::Number)
+      ok = isNumber(value);
+    else if (known->value == OptionValue::Numbers)
+      for (const std::string& item : split(value, ','))
+        ok = ok && isNumber(item);
+    if (!ok)
+      return "option " + arg + " takes " +
+             (known->value == OptionValue::Number ? "a number" : "comma-separated numbers") +
+             ", got '" + value + "'";
+  }
+  return {};
 }
 
 /** The one exception boundary of an app: runs \a body and returns its exit code; whatever

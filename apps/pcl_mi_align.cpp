@@ -87,7 +87,8 @@ printHelp(const char* program)
       "  -view                 show before (guess) and after side by side in a PCL viewer\n"
       "  -screenshot FILE.png  save that side-by-side view as an image (works under Xvfb:\n"
       "                        xvfb-run -a pcl_mi_align ... -screenshot view.png)\n"
-      "  -h                    this help\n",
+      "  -h, --help            this help\n"
+      "Exit codes: 0 converged, 3 not converged, 1 failed, 2 bad command line.\n",
       program, d.resolution, d.simplex_steps[0], d.simplex_steps[1], d.simplex_steps[2],
       d.simplex_steps[3] * deg, d.simplex_steps[4] * deg, d.simplex_steps[5] * deg,
       d.max_iterations, d.heading_starts, d.position_starts, d.narrow_view_position_starts,
@@ -167,10 +168,33 @@ showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
 int
 run(int argc, char** argv)
 {
-  if (argc < 3 || pcl::console::find_switch(argc, argv, "-h") ||
+  if (pcl::console::find_switch(argc, argv, "-h") ||
       pcl::console::find_switch(argc, argv, "--help")) {
     printHelp(argv[0]);
-    return argc < 3 ? 1 : 0;
+    return 0;
+  }
+  if (argc < 3) {
+    printHelp(argv[0]);
+    return 2;
+  }
+  using pcl_mi::apps::OptionValue;
+  const std::string bad_option = pcl_mi::apps::checkOptions(
+      argc, argv, 2,
+      {{"-guess", OptionValue::Numbers}, {"-guess_file", OptionValue::Text},
+       {"-reference", OptionValue::Text}, {"-resolution", OptionValue::Number},
+       {"-steps", OptionValue::Numbers}, {"-feature", OptionValue::Text},
+       {"-max_iterations", OptionValue::Number}, {"-heading_starts", OptionValue::Number},
+       {"-position_starts", OptionValue::Number}, {"-narrow_view_starts", OptionValue::Number},
+       {"-levels", OptionValue::Number}, {"-subdivision", OptionValue::Number},
+       {"-refinement", OptionValue::Text}, {"-refinement_resolution", OptionValue::Number},
+       {"-paper", OptionValue::None}, {"-backend", OptionValue::Text},
+       {"-opencl_device", OptionValue::Numbers}, {"-profile", OptionValue::None},
+       {"-transform", OptionValue::Text}, {"-aligned", OptionValue::Text},
+       {"-merged", OptionValue::Text}, {"-view", OptionValue::None},
+       {"-screenshot", OptionValue::Text}});
+  if (!bad_option.empty()) {
+    print_error("pcl_mi_align: %s\n", bad_option.c_str());
+    return 2;
   }
   const std::string source_path = argv[1], target_path = argv[2];
 

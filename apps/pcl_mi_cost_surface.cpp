@@ -105,7 +105,7 @@ run(int argc, char** argv)
         "                        (beyond REFERENCE) to 1.5 (beyond FILE's pose)\n"
         "Plot with: pcl_mi_plot_cost_surface.py PREFIX\n",
         argv[0]);
-    return argc < 4 ? 1 : 0;
+    return pcl::console::find_switch(argc, argv, "-h") ? 0 : 2;
   }
   pcl::PointCloud<pcl::PointXYZI> xyzi;
   auto source = pcl::make_shared<Cloud>(), target = pcl::make_shared<Cloud>();
