@@ -13,3 +13,8 @@ cmake --build "$work_dir/build"
 data="$source_dir/data/kitti"
 "$work_dir/build/consumer" "$data/sequences/00/velodyne/000009.bin" \
   "$data/sequences/00/velodyne/000000.bin" "$data/reference_00_000009_to_000000.txt"
+# The installed app runs from its prefix without LD_LIBRARY_PATH (RPATH relative to itself).
+if [ -x "$work_dir/install/bin/pcl_mi_align" ]; then
+  env -u LD_LIBRARY_PATH "$work_dir/install/bin/pcl_mi_align" -h > "$work_dir.app_help.log"
+  echo "installed pcl_mi_align -h: exit 0"
+fi
