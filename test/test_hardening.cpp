@@ -445,3 +445,29 @@ TEST_F(Hardening, Class14FarOutliersFollowAnExactRule)
       EXPECT_NE(reg.getLastResult().warnings[0].find("far outliers"), std::string::npos);
   }
 }
+
+// Inherited PCL setters that MI registration does not use warn once each, naming what to
+// use instead, and keep PCL's getters.
+TEST(PclContract, UnusedInheritedSettersWarnOnce)
+{
+  Registration reg;
+  const auto warning = [&](auto&& call) {
+    testing::internal::CaptureStderr();
+    call();
+    return testing::internal::GetCapturedStderr();
+  };
+  const std::string first = warning([&] { reg.setMaxCorrespondenceDistance(5.0); });
+  EXPECT_NE(first.find("setMaxCorrespondenceDistance"), std::string::npos) << first;
+  EXPECT_NE(first.find("setResolution()"), std::string::npos) << first;
+  EXPECT_EQ(warning([&] { reg.setMaxCorrespondenceDistance(2.0); }), "");
+  EXPECT_EQ(reg.getMaxCorrespondenceDistance(), 2.0);
+  EXPECT_NE(warning([&] { reg.setTransformationEpsilon(1e-8); }).find("setTranslationTolerance()"),
+            std::string::npos);
+  EXPECT_NE(warning([&] { reg.setEuclideanFitnessEpsilon(1e-5); }).find("setRotationTolerance()"),
+            std::string::npos);
+  EXPECT_NE(warning([&] { reg.setRANSACOutlierRejectionThreshold(0.1); }).find("no correspondences"),
+            std::string::npos);
+  EXPECT_NE(warning([&] { reg.setRANSACIterations(10); }).find("no correspondences"),
+            std::string::npos);
+  EXPECT_EQ(reg.getClassName(), "MutualInformationRegistration");
+}

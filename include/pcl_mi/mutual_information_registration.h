@@ -12,6 +12,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace pcl {
 
@@ -95,6 +96,30 @@ public:
   using Base::getFitnessScore;
 
   using Base::getClassName;
+
+  /** \name Inherited setters that MI registration does not use
+   * It has no correspondences and no per-iteration transformation change to threshold. Each
+   * stores its value like PCL's (the getters return it) and warns once per object, naming
+   * what to use instead (README, "Migrating from GICP/NDT"). */
+  ///@{
+  /** \brief Not used: the scale is setResolution()'s; warns once. */
+  void
+  setMaxCorrespondenceDistance(double distance_threshold);
+  /** \brief Not used: convergence is setTranslationTolerance() and setRotationTolerance();
+   * warns once. */
+  void
+  setTransformationEpsilon(double epsilon);
+  /** \brief Not used: convergence is setTranslationTolerance() and setRotationTolerance();
+   * warns once. */
+  void
+  setEuclideanFitnessEpsilon(double epsilon);
+  /** \brief Not used: there are no correspondences to reject; warns once. */
+  void
+  setRANSACOutlierRejectionThreshold(double inlier_threshold);
+  /** \brief Not used: there are no correspondences to reject; warns once. */
+  void
+  setRANSACIterations(int ransac_iterations);
+  ///@}
 
   /** \brief Source cloud (transformed onto the target). Honours setIndices(). */
   void
@@ -362,6 +387,10 @@ protected:
   computeTransformation(PointCloudSource& output, const Matrix4& guess) override;
 
 private:
+  /** PCL_WARN, once per object and \a setter, that \a setter has no effect here. */
+  void
+  warnUnused(const char* setter, const char* instead);
+
   /** Applies \a parameters, or reports \a setter's refusal and keeps the old ones. */
   bool
   applyParameters(const pcl_mi::Parameters& parameters, const char* setter);
@@ -402,6 +431,7 @@ private:
   pcl_mi::RegistrationCore core_;
   pcl_mi::AlignmentResult result_;
   std::string warned_; // the backend warning already printed
+  std::vector<std::string> warned_setters_; // inherited setters already warned about
   ConvertedSource converted_source_;
 };
 

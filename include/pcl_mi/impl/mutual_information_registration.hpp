@@ -271,6 +271,67 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::getFitnessScore
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::warnUnused(const char* setter,
+                                                                           const char* instead)
+{
+  for (const std::string& done : warned_setters_)
+    if (done == setter)
+      return;
+  warned_setters_.emplace_back(setter);
+  PCL_WARN("[pcl::%s::%s] has no effect on MI registration; %s.\n", getClassName().c_str(),
+           setter, instead);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setMaxCorrespondenceDistance(
+    double distance_threshold)
+{
+  Base::setMaxCorrespondenceDistance(distance_threshold);
+  warnUnused("setMaxCorrespondenceDistance",
+             "it has no correspondences: the scale is setResolution() (voxel size)");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setTransformationEpsilon(
+    double epsilon)
+{
+  Base::setTransformationEpsilon(epsilon);
+  warnUnused("setTransformationEpsilon",
+             "convergence is setTranslationTolerance() and setRotationTolerance()");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setEuclideanFitnessEpsilon(
+    double epsilon)
+{
+  Base::setEuclideanFitnessEpsilon(epsilon);
+  warnUnused("setEuclideanFitnessEpsilon",
+             "convergence is setTranslationTolerance() and setRotationTolerance()");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::
+    setRANSACOutlierRejectionThreshold(double inlier_threshold)
+{
+  Base::setRANSACOutlierRejectionThreshold(inlier_threshold);
+  warnUnused("setRANSACOutlierRejectionThreshold", "it has no correspondences to reject");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRANSACIterations(
+    int ransac_iterations)
+{
+  Base::setRANSACIterations(ransac_iterations);
+  warnUnused("setRANSACIterations", "it has no correspondences to reject");
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
 bool
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::applyParameters(
     const pcl_mi::Parameters& parameters, const char* setter)
