@@ -9,6 +9,7 @@ packages=(
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo
   clang libclang-rt-14-dev
   python3-matplotlib python3-numpy xvfb xauth
+  pcl-tools
 )
 missing=()
 for p in "${packages[@]}"; do
