@@ -411,6 +411,11 @@ private:
   std::string
   updateSource();
 
+  /** The first index of indices_ out of range of the source, as an error; empty when all
+   * fit (or there is no source or no indices). */
+  std::string
+  indexError() const;
+
   /** Why align() cannot run with the inputs as they are (no target, no source, an index
    * out of range); empty when it can. */
   std::string

@@ -16,12 +16,6 @@
 namespace pcl_mi {
 namespace detail {
 
-/** \brief A k-d tree that is built on its first query instead of in setInputCloud().
- *
- * pcl::Registration::align() hands every new target to its search tree, but the MI
- * registration never searches it: only getFitnessScore() does. Building a FLANN tree over
- * a 120k-point scan costs about as much as a whole alignment, so it is deferred until
- * someone asks. Not safe for concurrent first queries (neither is the base class). */
 /** \brief Largest coordinate magnitude a k-d tree query or point may have: FLANN's
  * squared distances overflow beyond it and its assertions abort the process. */
 constexpr float kMaxSearchCoordinate = 1e15f;
@@ -34,6 +28,12 @@ isSearchable(const PointT& p)
          std::abs(p.z) <= kMaxSearchCoordinate; // false for NaN too
 }
 
+/** \brief A k-d tree that is built on its first query instead of in setInputCloud().
+ *
+ * pcl::Registration::align() hands every new target to its search tree, but the MI
+ * registration never searches it: only getFitnessScore() does. Building a FLANN tree over
+ * a 120k-point scan costs about as much as a whole alignment, so it is deferred until
+ * someone asks. Not safe for concurrent first queries (neither is the base class). */
 template <typename PointT>
 class LazyKdTree : public pcl::search::KdTree<PointT> {
 public:
@@ -58,12 +58,8 @@ public:
                  pcl::Indices& k_indices,
                  std::vector<float>& k_sqr_distances) const override
   {
-    build();
-    if (searchable_ == 0 || !isSearchable(point)) {
-      k_indices.clear();
-      k_sqr_distances.clear();
+    if (!canSearch(point, k_indices, k_sqr_distances))
       return 0;
-    }
     return Base::nearestKSearch(point, k, k_indices, k_sqr_distances);
   }
 
@@ -74,16 +70,25 @@ public:
                std::vector<float>& k_sqr_distances,
                unsigned int max_nn = 0) const override
   {
-    build();
-    if (searchable_ == 0 || !isSearchable(point)) {
-      k_indices.clear();
-      k_sqr_distances.clear();
+    if (!canSearch(point, k_indices, k_sqr_distances))
       return 0;
-    }
     return Base::radiusSearch(point, radius, k_indices, k_sqr_distances, max_nn);
   }
 
 private:
+  /** Builds the tree on first use; false (with empty results) when \a point cannot be
+   * searched or the tree holds no point. */
+  bool
+  canSearch(const PointT& point, pcl::Indices& k_indices, std::vector<float>& k_sqr_distances) const
+  {
+    build();
+    if (searchable_ > 0 && isSearchable(point))
+      return true;
+    k_indices.clear();
+    k_sqr_distances.clear();
+    return false;
+  }
+
   /** Builds the tree over the searchable points (of indices_, when given). */
   void
   build() const
@@ -176,11 +181,11 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::updateSource()
   pcl_mi::PointList points;
   if (input_) {
     if (indices_) {
+      const std::string bad_index = indexError();
+      if (!bad_index.empty())
+        return bad_index;
       points.reserve(indices_->size());
       for (const auto i : *indices_) {
-        if (i < 0 || static_cast<std::size_t>(i) >= input_->size())
-          return "index " + std::to_string(i) + " is out of range of the source's " +
-                 std::to_string(input_->size()) + " points (setIndices)";
         const PointSource& p = (*input_)[static_cast<std::size_t>(i)];
         points.emplace_back(p.x, p.y, p.z);
       }
@@ -198,19 +203,27 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::updateSource()
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 std::string
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::indexError() const
+{
+  if (input_ && indices_)
+    for (const auto i : *indices_)
+      if (i < 0 || static_cast<std::size_t>(i) >= input_->size())
+        return "index " + std::to_string(i) + " is out of range of the source's " +
+               std::to_string(input_->size()) + " points (setIndices)";
+  return {};
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+std::string
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::inputError() const
 {
   if (!target_)
     return "no target cloud was given (setInputTarget)";
   if (!input_)
     return "no source cloud was given (setInputSource)";
-  // The base class's align() copies the source through the indices before anything else.
-  if (indices_ && !this->fake_indices_)
-    for (const auto i : *indices_)
-      if (i < 0 || static_cast<std::size_t>(i) >= input_->size())
-        return "index " + std::to_string(i) + " is out of range of the source's " +
-               std::to_string(input_->size()) + " points (setIndices)";
-  return {};
+  // The base class's align() copies the source through the indices before anything else;
+  // its own (fake) indices always fit the source.
+  return this->fake_indices_ ? std::string() : indexError();
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -531,7 +544,8 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
   final_transformation_ = guess;
 
   // setMaximumIterations() is the base class's and cannot refuse a value: checked here.
-  const std::string invalid = getParameters().validate();
+  const pcl_mi::Parameters parameters = getParameters();
+  const std::string invalid = parameters.validate();
   const std::string source_error = invalid.empty() ? updateSource() : std::string();
   if (!invalid.empty()) {
     result_.error = "invalid parameters: " + invalid;
@@ -542,7 +556,7 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
     result_.error = source_error;
   }
   else {
-    core_.setParameters(getParameters());
+    core_.setParameters(parameters);
     try {
       result_ = core_.align(guess.template cast<double>());
     }
