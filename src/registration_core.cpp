@@ -273,8 +273,10 @@ struct RegistrationCore::Impl {
       error = describeTooFew("source", source);
       return false;
     }
-    error = core::structureError(target, parameters.resolution, "target");
-    if (error.empty())
+    // An unchanged cloud passed at this resolution already (a new resolution marks both).
+    if (new_target)
+      error = core::structureError(target, parameters.resolution, "target");
+    if (error.empty() && new_source)
       error = core::structureError(source, parameters.resolution, "source");
     if (!error.empty())
       return false;
