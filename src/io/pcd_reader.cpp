@@ -172,11 +172,8 @@ struct PcdHeader {
  * file holds or more than a PCLPointCloud2 can hold, or that disagree with themselves are
  * refused here. */
 std::string
-parsePcdHeader(const std::string& path, std::uint64_t file_bytes, PcdHeader& h)
+parsePcdHeader(const std::string& path, std::uint64_t file_bytes, std::ifstream& in, PcdHeader& h)
 {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    return "cannot open '" + path + "'";
   const std::string bad = "'" + path + "' has an invalid PCD header: ";
   // Plain non-negative integers of at most 15 digits (exact as doubles).
   auto integers = [](std::istringstream& words, std::vector<std::uint64_t>& out) {
@@ -432,8 +429,11 @@ readPcd(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
   std::string error = checkRegularFile(path, &file_bytes);
   if (!error.empty())
     return error;
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    return "cannot open '" + path + "'";
   PcdHeader h;
-  error = parsePcdHeader(path, file_bytes, h);
+  error = parsePcdHeader(path, file_bytes, in, h);
   if (!error.empty())
     return error;
   pcl::PCLPointCloud2 blob;
@@ -441,7 +441,8 @@ readPcd(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
   error = makeFields(path, h, compressed, blob);
   if (!error.empty())
     return error;
-  std::ifstream in(path, std::ios::binary);
+  // The header reader may have read ahead of the data: start it where DATA's line ends.
+  in.clear();
   in.seekg(static_cast<std::streamoff>(h.data_offset));
   if (h.data == "binary") {
     blob.data.resize(blob.row_step);
