@@ -71,4 +71,20 @@ constexpr double kMaxRotationErrorDeg = 0.2;
     EXPECT_LT(pose_error_.rotation_deg, test_data::kMaxRotationErrorDeg);                  \
   } while (0)
 
+/** Runs align() expecting a refusal whose message contains \a reason: no exception, not
+ * converged, and the guess as the final transformation. */
+template <typename Registration>
+void
+expectRefused(Registration& reg,
+              const std::string& reason,
+              const Eigen::Matrix4f& guess = Eigen::Matrix4f::Identity())
+{
+  typename Registration::PointCloudSource output;
+  EXPECT_NO_THROW(reg.align(output, guess));
+  EXPECT_FALSE(reg.hasConverged());
+  EXPECT_NE(reg.getLastError().find(reason), std::string::npos)
+      << "error was: '" << reg.getLastError() << "'";
+  EXPECT_TRUE(reg.getFinalTransformation().isApprox(guess));
+}
+
 } // namespace test_data

@@ -76,19 +76,6 @@ cloudOf(const std::vector<Eigen::Vector3f>& points)
   return cloud;
 }
 
-void
-expectRefused(Registration& reg, const std::string& reason,
-              const Eigen::Matrix4f& guess = Eigen::Matrix4f::Identity())
-{
-  Cloud output;
-  EXPECT_NO_THROW(reg.align(output, guess));
-  EXPECT_FALSE(reg.hasConverged());
-  EXPECT_NE(reg.getLastError().find(reason), std::string::npos)
-      << "error was: '" << reg.getLastError() << "'";
-  EXPECT_TRUE(reg.getFinalTransformation().isApprox(guess) ||
-              (guess.isZero() && reg.getFinalTransformation().isZero()));
-}
-
 class Hardening : public ::testing::Test {
 protected:
   static void
@@ -246,7 +233,7 @@ TEST_F(Hardening, Class5InformationFreeInputIsRefused)
     Registration reg;
     reg.setInputSource(cloudOf({{1, 2, 3}, {1, 2, 3}, {1, 2, 3}}));
     reg.setInputTarget(target_);
-    expectRefused(reg, "all lie at one position");
+    test_data::expectRefused(reg, "all lie at one position");
   }
   {
     std::vector<Eigen::Vector3f> line;
@@ -255,14 +242,14 @@ TEST_F(Hardening, Class5InformationFreeInputIsRefused)
     Registration reg;
     reg.setInputSource(source_);
     reg.setInputTarget(cloudOf(line));
-    expectRefused(reg, "lie on a line");
+    test_data::expectRefused(reg, "lie on a line");
   }
   {
     Registration reg;
     reg.setResolution(1e30);
     reg.setInputSource(source_);
     reg.setInputTarget(target_);
-    expectRefused(reg, "carries no structure at resolution 1e+30");
+    test_data::expectRefused(reg, "carries no structure at resolution 1e+30");
   }
 }
 
@@ -278,13 +265,13 @@ TEST_F(Hardening, Class6NoStaleResultAfterARefusal)
   Eigen::Matrix4f guess = Eigen::Matrix4f::Identity();
   guess(0, 3) = 0.5f;
   reg.setInputSource(Cloud::Ptr());
-  expectRefused(reg, "no source cloud", guess);
+  test_data::expectRefused(reg, "no source cloud", guess);
   Registration no_target;
   no_target.setInputSource(source_);
-  expectRefused(no_target, "no target cloud", guess);
+  test_data::expectRefused(no_target, "no target cloud", guess);
   reg.setInputSource(source_);
   reg.setInputTarget(Cloud::Ptr());
-  expectRefused(reg, "no target cloud", guess);
+  test_data::expectRefused(reg, "no target cloud", guess);
 }
 
 // Class 7: restarts are bounded, and each costs the budget an iteration even when it
@@ -342,7 +329,7 @@ TEST_F(Hardening, Class10IndicesOutOfRangeAreRefused)
     indices->push_back(i * 50);
   indices->push_back(static_cast<pcl::index_t>(source_->size()) + 7);
   reg.setIndices(indices);
-  expectRefused(reg, "out of range");
+  test_data::expectRefused(reg, "out of range");
   indices->pop_back();
   reg.setIndices(indices);
   Cloud output;
@@ -352,7 +339,7 @@ TEST_F(Hardening, Class10IndicesOutOfRangeAreRefused)
   auto smaller = pcl::make_shared<Cloud>(*source_);
   smaller->resize(100);
   reg.setInputSource(smaller);
-  expectRefused(reg, "out of range");
+  test_data::expectRefused(reg, "out of range");
   EXPECT_LT(reg.evaluate(Eigen::Matrix4f::Identity()), 0.0);
 }
 
@@ -364,21 +351,21 @@ TEST_F(Hardening, Class11MessagesNameTheCause)
     reg.setResolution(1e-6);
     reg.setInputSource(source_);
     reg.setInputTarget(target_);
-    expectRefused(reg, "too fine");
+    test_data::expectRefused(reg, "too fine");
   }
   {
     Registration reg;
     reg.setResolution(1e300);
     reg.setInputSource(source_);
     reg.setInputTarget(target_);
-    expectRefused(reg, "no structure");
+    test_data::expectRefused(reg, "no structure");
   }
   {
     Registration reg;
     reg.setInputSource(source_);
     reg.setInputTarget(target_);
     reg.setMaximumIterations(0);
-    expectRefused(reg, "maximum iterations must be at least 1, got 0 (setMaximumIterations)");
+    test_data::expectRefused(reg, "maximum iterations must be at least 1, got 0 (setMaximumIterations)");
   }
 }
 
@@ -390,11 +377,11 @@ TEST_F(Hardening, Class12GuessesMustBeRigid)
   reg.setInputTarget(target_);
   Eigen::Matrix4f scaled = Eigen::Matrix4f::Identity();
   scaled.topLeftCorner<3, 3>() *= 2.0f;
-  expectRefused(reg, "not a rigid transformation", scaled);
-  expectRefused(reg, "not a rigid transformation", Eigen::Matrix4f::Zero());
+  test_data::expectRefused(reg, "not a rigid transformation", scaled);
+  test_data::expectRefused(reg, "not a rigid transformation", Eigen::Matrix4f::Zero());
   Eigen::Matrix4f mirror = Eigen::Matrix4f::Identity();
   mirror(2, 2) = -1.0f;
-  expectRefused(reg, "reflection", mirror);
+  test_data::expectRefused(reg, "reflection", mirror);
   // A float-rounded rotation is rigid.
   Eigen::Matrix4f turned = Eigen::Matrix4f::Identity();
   turned.topLeftCorner<3, 3>() =
