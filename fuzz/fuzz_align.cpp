@@ -4,6 +4,8 @@
  * error, never a crash; invalid parameters must be refused by setParameters().
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "fuzz_input.h"
+
 #include <pcl_mi/registration_core.h>
 
 #include <cmath>
@@ -13,55 +15,31 @@
 
 namespace {
 
-/** Reads the input front to back; zeros once it runs out. */
-class Reader {
-public:
-  Reader(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
+using pcl_mi::fuzz::FuzzInput;
 
-  std::uint8_t
-  byte()
-  {
-    return pos_ < size_ ? data_[pos_++] : 0;
+/** Mostly coordinates within +-327 m in 1 cm steps; a few special values. */
+float
+coordinate(FuzzInput& in)
+{
+  switch (in.byte()) {
+  case 0xff:
+    return std::numeric_limits<float>::quiet_NaN();
+  case 0xfe:
+    return std::numeric_limits<float>::infinity();
+  case 0xfd:
+    return 1e7f * static_cast<float>(in.int16()); // far away
+  default:
+    return static_cast<float>(in.int16()) * 0.01f;
   }
-  std::int16_t
-  int16()
-  {
-    return static_cast<std::int16_t>(byte() | (byte() << 8));
-  }
-  /** Mostly coordinates within +-327 m in 1 cm steps; a few special values. */
-  float
-  coordinate()
-  {
-    const std::uint8_t kind = byte();
-    switch (kind) {
-    case 0xff:
-      return std::numeric_limits<float>::quiet_NaN();
-    case 0xfe:
-      return std::numeric_limits<float>::infinity();
-    case 0xfd:
-      return 1e7f * static_cast<float>(int16()); // far away
-    default:
-      return static_cast<float>(int16()) * 0.01f;
-    }
-  }
-  bool
-  empty() const
-  {
-    return pos_ >= size_;
-  }
-
-private:
-  const std::uint8_t* data_;
-  std::size_t size_, pos_ = 0;
-};
+}
 
 pcl_mi::PointList
-cloud(Reader& in)
+cloud(FuzzInput& in)
 {
   const int n = in.byte() * 2; // up to 510 points
   pcl_mi::PointList points;
   for (int i = 0; i < n && !in.empty(); ++i) {
-    const float x = in.coordinate(), y = in.coordinate(), z = in.coordinate();
+    const float x = coordinate(in), y = coordinate(in), z = coordinate(in);
     points.emplace_back(x, y, z);
   }
   return points;
@@ -72,12 +50,12 @@ cloud(Reader& in)
 extern "C" int
 LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {
-  Reader in(data, size);
+  FuzzInput in(data, size);
   pcl_mi::Parameters p;
   // Resolutions from 0.05 m to 12.8 m (fine ones exercise the grid-size cap) or, for a
   // high selector byte, an arbitrary (possibly invalid) value.
   const std::uint8_t r = in.byte();
-  p.resolution = r < 250 ? 0.05 * (1 + r) : static_cast<double>(in.coordinate());
+  p.resolution = r < 250 ? 0.05 * (1 + r) : static_cast<double>(coordinate(in));
   p.feature = in.byte() % 2 ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
   p.pyramid_levels = in.byte() % 4; // 0 is invalid
   p.source_subdivision = in.byte() % 5;
@@ -96,10 +74,10 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
   core.setTarget(cloud(in));
   core.setSource(cloud(in));
   Eigen::Matrix4d guess = Eigen::Matrix4d::Identity();
-  guess(0, 3) = in.coordinate();
-  guess(1, 3) = in.coordinate();
-  guess(2, 3) = in.coordinate();
-  const float yaw = in.coordinate();
+  guess(0, 3) = coordinate(in);
+  guess(1, 3) = coordinate(in);
+  guess(2, 3) = coordinate(in);
+  const float yaw = coordinate(in);
   guess(0, 0) = guess(1, 1) = std::cos(yaw);
   guess(0, 1) = -std::sin(yaw);
   guess(1, 0) = std::sin(yaw);

@@ -7,6 +7,8 @@
  * a failed align() leaves the guess as the final transformation and says why.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "fuzz_input.h"
+
 #include <pcl_mi/mutual_information_registration.h>
 
 #include <pcl/console/print.h>
@@ -21,38 +23,26 @@ namespace {
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 using Registration = pcl::MutualInformationRegistration<pcl::PointXYZ>;
 
-struct Bytes {
-  const std::uint8_t* data;
-  std::size_t size, pos = 0;
+using pcl_mi::fuzz::FuzzInput;
 
-  std::uint8_t
-  byte()
-  {
-    return pos < size ? data[pos++] : 0;
+/** Mostly coordinates within +-327 m in 1 cm steps; NaN, FLT_MAX and 1e30 too. */
+float
+coordinate(FuzzInput& in)
+{
+  switch (in.byte()) {
+  case 0xff:
+    return std::numeric_limits<float>::quiet_NaN();
+  case 0xfe:
+    return FLT_MAX;
+  case 0xfd:
+    return 1e30f;
+  default:
+    return static_cast<float>(in.int16()) * 0.01f;
   }
-  bool
-  empty() const
-  {
-    return pos >= size;
-  }
-  float
-  coordinate()
-  {
-    switch (const std::uint8_t kind = byte()) {
-    case 0xff:
-      return std::numeric_limits<float>::quiet_NaN();
-    case 0xfe:
-      return FLT_MAX;
-    case 0xfd:
-      return 1e30f;
-    default:
-      return static_cast<float>(static_cast<std::int16_t>(kind | (byte() << 8))) * 0.01f;
-    }
-  }
-};
+}
 
 Cloud::Ptr
-makeCloud(Bytes& in)
+makeCloud(FuzzInput& in)
 {
   switch (in.byte() % 8) {
   case 0:
@@ -63,14 +53,14 @@ makeCloud(Bytes& in)
     auto cloud = pcl::make_shared<Cloud>();
     const int n = 1 + in.byte() % 200;
     for (int i = 0; i < n && !in.empty(); ++i)
-      cloud->push_back(pcl::PointXYZ(in.coordinate(), in.coordinate(), in.coordinate()));
+      cloud->push_back(pcl::PointXYZ(coordinate(in), coordinate(in), coordinate(in)));
     return cloud;
   }
   }
 }
 
 Eigen::Matrix4f
-makeGuess(Bytes& in)
+makeGuess(FuzzInput& in)
 {
   Eigen::Matrix4f guess = Eigen::Matrix4f::Identity();
   switch (in.byte() % 6) {
@@ -86,10 +76,10 @@ makeGuess(Bytes& in)
     break;
   default:
     guess.topLeftCorner<3, 3>() =
-        Eigen::AngleAxisf(0.05f * in.byte(), Eigen::Vector3f(in.coordinate(), 1.0f, in.coordinate())
+        Eigen::AngleAxisf(0.05f * in.byte(), Eigen::Vector3f(coordinate(in), 1.0f, coordinate(in))
                                                  .normalized())
             .toRotationMatrix();
-    guess.topRightCorner<3, 1>() << in.coordinate(), in.coordinate(), in.coordinate();
+    guess.topRightCorner<3, 1>() << coordinate(in), coordinate(in), coordinate(in);
   }
   return guess;
 }
@@ -100,7 +90,7 @@ extern "C" int
 LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  Bytes in{data, size};
+  FuzzInput in(data, size);
   Registration reg;
   reg.setMaximumIterations(30); // bounded work per input
   Cloud::Ptr source;
@@ -126,7 +116,7 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
       break;
     case 4: {
       const std::uint8_t r = in.byte();
-      reg.setResolution(r < 240 ? 0.05 * (1 + r) : static_cast<double>(in.coordinate()));
+      reg.setResolution(r < 240 ? 0.05 * (1 + r) : static_cast<double>(coordinate(in)));
       break;
     }
     case 5:

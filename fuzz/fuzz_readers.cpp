@@ -8,6 +8,8 @@
  * keywords for the raw modes.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "fuzz_input.h"
+
 #include <pcl_mi/io.h>
 
 #include <cstdint>
@@ -19,46 +21,30 @@
 
 namespace {
 
-/** Reads the input front to back; zeros once it runs out. */
-struct Bytes {
-  const std::uint8_t* data;
-  std::size_t size, pos = 0;
+using pcl_mi::fuzz::FuzzInput;
 
-  std::uint8_t
-  byte()
-  {
-    return pos < size ? data[pos++] : 0;
+/** A size or count: mostly small, sometimes large, and the edges of 32 bits. */
+std::uint64_t
+count(FuzzInput& in)
+{
+  const std::uint8_t kind = in.byte();
+  const std::uint32_t v = in.uint32();
+  switch (kind % 8) {
+  case 0:
+    return 0;
+  case 1:
+    return v; // up to 2^32 - 1
+  case 2:
+    return std::uint64_t{1} << (v % 40);
+  case 3:
+    return (v & 0xffff) + 1;
+  default:
+    return kind % 16 + 1;
   }
-  /** Mostly small values, sometimes large ones and the edges of 32 bits. */
-  std::uint64_t
-  count()
-  {
-    const std::uint8_t kind = byte();
-    const std::uint32_t v = byte() | (byte() << 8) | (byte() << 16) | (std::uint32_t{byte()} << 24);
-    switch (kind % 8) {
-    case 0:
-      return 0;
-    case 1:
-      return v; // up to 2^32 - 1
-    case 2:
-      return std::uint64_t{1} << (v % 40);
-    case 3:
-      return (v & 0xffff) + 1;
-    default:
-      return kind % 16 + 1;
-    }
-  }
-  std::string
-  rest()
-  {
-    const std::string s(reinterpret_cast<const char*>(data + pos), size - pos);
-    pos = size;
-    return s;
-  }
-};
+}
 
 std::string
-structuredPcd(Bytes& in)
+structuredPcd(FuzzInput& in)
 {
   static const char* const kData[] = {"ascii", "binary", "binary_compressed"};
   static const char* const kNames[] = {"x", "y", "z", "intensity", "_", "rgb", "normal_x"};
@@ -73,18 +59,18 @@ structuredPcd(Bytes& in)
     names << " " << kNames[(f < 3 && in.byte() % 8) ? f : in.byte() % 7];
     sizes << " " << kSizes[in.byte() % 4];
     types << " " << kTypes[in.byte() % 3];
-    counts << " " << in.count();
+    counts << " " << count(in);
   }
-  const std::uint64_t width = in.count(), height = 1 + in.byte() % 3;
+  const std::uint64_t width = count(in), height = 1 + in.byte() % 3;
   s << "VERSION 0.7\nFIELDS" << names.str() << "\nSIZE" << sizes.str() << "\nTYPE" << types.str()
     << "\nCOUNT" << counts.str() << "\nWIDTH " << width << "\nHEIGHT " << height
-    << "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << (in.byte() % 8 ? width * height : in.count())
+    << "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << (in.byte() % 8 ? width * height : count(in))
     << "\nDATA " << kData[in.byte() % 3] << "\n";
   return s.str() + in.rest();
 }
 
 std::string
-structuredPly(Bytes& in)
+structuredPly(FuzzInput& in)
 {
   static const char* const kFormats[] = {"ascii", "binary_little_endian", "binary_big_endian"};
   static const char* const kTypes[] = {"char", "uchar", "short", "ushort", "int",
@@ -103,10 +89,10 @@ structuredPly(Bytes& in)
     }
   };
   if (in.byte() % 2) {
-    s << "element face " << in.count() << "\n";
+    s << "element face " << count(in) << "\n";
     properties(false);
   }
-  s << "element vertex " << in.count() << "\n";
+  s << "element vertex " << count(in) << "\n";
   properties(true);
   s << "end_header\n";
   return s.str() + in.rest();
@@ -123,7 +109,7 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
   const int mode = data[0] % 5;
   const std::string path =
       "/tmp/pcl_mi_fuzz_reader_" + std::to_string(getpid()) + kExtensions[mode];
-  Bytes in{data + 1, size - 1};
+  FuzzInput in(data + 1, size - 1);
   const std::string bytes = mode == 3 ? structuredPcd(in) : mode == 4 ? structuredPly(in) : in.rest();
   {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
