@@ -77,7 +77,13 @@ kittiPosesPath(const std::string& root, const std::string& sequence, const std::
 }
 
 /** What follows a command-line option. */
-enum class OptionValue { None, Number, Numbers, Text };
+enum class OptionValue {
+  None,    ///< a switch
+  Number,  ///< one number
+  Numbers, ///< comma-separated numbers
+  Text,    ///< one word
+  Files    ///< one or more words up to the next option (e.g. -merge A.csv B.csv)
+};
 
 /** A command-line option an app knows. */
 struct Option {
@@ -85,11 +91,19 @@ struct Option {
   OptionValue value;
 };
 
+/** \a a followed by \a b. */
+inline std::vector<Option>
+join(std::vector<Option> a, const std::vector<Option>& b)
+{
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
 /** Empty when every argument after the first \a positional ones is a known option followed
  * by a value of the right kind; otherwise a one-line reason naming the first that is not
  * (a misspelled option would otherwise be ignored, and the run go on with a default). */
 inline std::string
-checkOptions(int argc, char** argv, int positional, std::initializer_list<Option> options)
+checkOptions(int argc, char** argv, int positional, const std::vector<Option>& options)
 {
   auto isNumber = [](const std::string& word) {
     char* end = nullptr;
@@ -108,6 +122,11 @@ checkOptions(int argc, char** argv, int positional, std::initializer_list<Option
       continue;
     if (i + 1 >= argc)
       return "option " + arg + " needs a value";
+    if (known->value == OptionValue::Files) {
+      while (i + 1 < argc && argv[i + 1][0] != '-')
+        ++i;
+      continue;
+    }
     const std::string value = argv[++i];
     bool ok = true;
     if (known->value == OptionValue::Number)

@@ -4,6 +4,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "app_util.h"
+#include "mi_options.h"
 
 #include <pcl_mi/io.h>
 #include <pcl_mi/mutual_information_registration.h>
@@ -35,9 +36,6 @@ namespace {
 void
 printHelp(const char* program)
 {
-  // The defaults shown are the library's own, so the help cannot drift from them.
-  const pcl_mi::Parameters d;
-  const double deg = 180.0 / M_PI;
   print_info(
       "Aligns SOURCE onto TARGET by maximising the mutual information of voxel features.\n"
       "\n"
@@ -48,37 +46,6 @@ printHelp(const char* program)
       "  -guess_file FILE      initial guess as a 4x4 (or 3x4) matrix in a text file\n"
       "  -reference FILE       reference source-to-target transform (4x4 or 3x4 text):\n"
       "                        prints the error of the result against it\n"
-      "  -resolution R         voxel size in the clouds' units (default %g; metres for\n"
-      "                        KITTI). The refinement cube and the translation tolerance\n"
-      "                        follow it; the steps do not\n"
-      "  -steps tx,ty,tz,roll,pitch,yaw  initial simplex: how far the guess may be off,\n"
-      "                        in the clouds' units and degrees; 0 pins a parameter\n"
-      "                        (default %g,%g,%g,%.3g,%.3g,%.3g). Clouds in millimetres\n"
-      "                        need steps in millimetres\n"
-      "  -feature varz|count   voxel feature: variance of z or point count (default varz)\n"
-      "  -max_iterations N     Nelder-Mead iteration cap over all restarts (default %d)\n"
-      "  -heading_starts N     start the coarsest search from N headings spread over\n"
-      "                        360 deg, for guesses whose heading may be off by more than\n"
-      "                        about 60 deg (default %d)\n"
-      "  -position_starts N    also start it from N positions around the guess (half the\n"
-      "                        x/y steps away), e.g. for a narrow field of view (default %d)\n"
-      "  -narrow_view_starts N position starts used instead when either cloud covers less\n"
-      "                        than 180 deg of azimuth about its origin (default %d; 0 = off)\n"
-      "  -levels N             coarse-to-fine pyramid levels (default %d; 1 = single grid)\n"
-      "  -subdivision N        source samples per voxel edge (default %d; 0 = every point)\n"
-      "  -refinement on|off    refine the MI optimum on the target's distributions\n"
-      "                        (default on)\n"
-      "  -refinement_resolution R  cube edge of the refinement's distributions (default\n"
-      "                        0: 0.7 * resolution)\n"
-      "  -paper                the paper's exact method: one simplex, one grid, every\n"
-      "                        point, no mirrored start, restarts or refinement\n"
-      "  -backend cpu|opencl|auto   where the cost evaluations run (default cpu; auto:\n"
-      "                        OpenCL on a GPU when every point is evaluated, as with\n"
-      "                        -paper, where it is faster; else cpu)\n"
-      "  -opencl_device P,D    OpenCL platform and device index as clinfo -l lists them\n"
-      "                        (default: the first GPU, else the first device)\n"
-      "  -profile              print where the time went, stage by stage, and the\n"
-      "                        backend's own stages (OpenCL: kernel times from events)\n"
       "  -transform FILE       also write the final transformation there as 4x4 text (the\n"
       "                        format -guess_file and -reference read)\n"
       "  -aligned FILE         aligned source cloud (default aligned.pcd)\n"
@@ -88,11 +55,9 @@ printHelp(const char* program)
       "  -screenshot FILE.png  save that side-by-side view as an image (works under Xvfb:\n"
       "                        xvfb-run -a pcl_mi_align ... -screenshot view.png)\n"
       "  -h, --help            this help\n"
-      "Exit codes: 0 converged, 3 not converged, 1 failed, 2 bad command line.\n",
-      program, d.resolution, d.simplex_steps[0], d.simplex_steps[1], d.simplex_steps[2],
-      d.simplex_steps[3] * deg, d.simplex_steps[4] * deg, d.simplex_steps[5] * deg,
-      d.max_iterations, d.heading_starts, d.position_starts, d.narrow_view_position_starts,
-      d.pyramid_levels, d.source_subdivision);
+      "Exit codes: 0 converged, 3 not converged, 1 failed, 2 bad command line.\n"
+      "\n%s",
+      program, pcl_mi::apps::miOptionsHelp(pcl_mi::apps::MiOptionSet::All).c_str());
 }
 
 Eigen::Matrix4d
@@ -180,18 +145,12 @@ run(int argc, char** argv)
   using pcl_mi::apps::OptionValue;
   const std::string bad_option = pcl_mi::apps::checkOptions(
       argc, argv, 2,
-      {{"-guess", OptionValue::Numbers}, {"-guess_file", OptionValue::Text},
-       {"-reference", OptionValue::Text}, {"-resolution", OptionValue::Number},
-       {"-steps", OptionValue::Numbers}, {"-feature", OptionValue::Text},
-       {"-max_iterations", OptionValue::Number}, {"-heading_starts", OptionValue::Number},
-       {"-position_starts", OptionValue::Number}, {"-narrow_view_starts", OptionValue::Number},
-       {"-levels", OptionValue::Number}, {"-subdivision", OptionValue::Number},
-       {"-refinement", OptionValue::Text}, {"-refinement_resolution", OptionValue::Number},
-       {"-paper", OptionValue::None}, {"-backend", OptionValue::Text},
-       {"-opencl_device", OptionValue::Numbers}, {"-profile", OptionValue::None},
-       {"-transform", OptionValue::Text}, {"-aligned", OptionValue::Text},
-       {"-merged", OptionValue::Text}, {"-view", OptionValue::None},
-       {"-screenshot", OptionValue::Text}});
+      pcl_mi::apps::join(
+          {{"-guess", OptionValue::Numbers}, {"-guess_file", OptionValue::Text},
+           {"-reference", OptionValue::Text}, {"-transform", OptionValue::Text},
+           {"-aligned", OptionValue::Text}, {"-merged", OptionValue::Text},
+           {"-view", OptionValue::None}, {"-screenshot", OptionValue::Text}},
+          pcl_mi::apps::miOptionTable(pcl_mi::apps::MiOptionSet::All)));
   if (!bad_option.empty()) {
     print_error("pcl_mi_align: %s\n", bad_option.c_str());
     return 2;
@@ -240,80 +199,29 @@ run(int argc, char** argv)
   // written (large inputs).
   auto registration = std::make_unique<pcl::MutualInformationRegistration<pcl::PointXYZI>>();
   auto& reg = *registration;
-  double resolution = reg.getResolution();
-  pcl::console::parse_argument(argc, argv, "-resolution", resolution);
-  std::string feature = "varz";
-  pcl::console::parse_argument(argc, argv, "-feature", feature);
-  const bool paper = pcl::console::find_switch(argc, argv, "-paper");
-  int max_iterations =
-      paper ? pcl_mi::Parameters::paper().max_iterations : reg.getMaximumIterations();
-  pcl::console::parse_argument(argc, argv, "-max_iterations", max_iterations);
   std::string aligned_path = "aligned.pcd", merged_path = "merged.pcd", transform_path;
   pcl::console::parse_argument(argc, argv, "-transform", transform_path);
   pcl::console::parse_argument(argc, argv, "-aligned", aligned_path);
   pcl::console::parse_argument(argc, argv, "-merged", merged_path);
 
   pcl_mi::Parameters parameters = reg.getParameters();
-  if (paper)
-    parameters = pcl_mi::Parameters::paper();
-  parameters.resolution = resolution;
-  parameters.max_iterations = max_iterations;
-  pcl::console::parse_argument(argc, argv, "-levels", parameters.pyramid_levels);
-  pcl::console::parse_argument(argc, argv, "-heading_starts", parameters.heading_starts);
-  pcl::console::parse_argument(argc, argv, "-position_starts", parameters.position_starts);
-  pcl::console::parse_argument(argc, argv, "-narrow_view_starts",
-                               parameters.narrow_view_position_starts);
-  pcl::console::parse_argument(argc, argv, "-subdivision", parameters.source_subdivision);
-  pcl::console::parse_argument(argc, argv, "-refinement_resolution",
-                               parameters.refinement_resolution);
-  if (parsePoseVector(argc, argv, "-steps", parameters.simplex_steps) == 0)
-    return 1;
-  std::string backend = "cpu";
-  pcl::console::parse_argument(argc, argv, "-backend", backend);
-  if (!pcl_mi::parseBackend(backend, parameters.backend)) {
-    print_error("pcl_mi_align: -backend must be cpu, opencl or auto, got '%s'\n", backend.c_str());
-    return 1;
-  }
-  std::vector<int> opencl_device;
-  if (pcl::console::parse_x_arguments(argc, argv, "-opencl_device", opencl_device) >= 0) {
-    if (opencl_device.size() != 2) {
-      print_error("pcl_mi_align: -opencl_device needs PLATFORM,DEVICE\n");
-      return 1;
-    }
-    parameters.opencl_platform = opencl_device[0];
-    parameters.opencl_device = opencl_device[1];
-  }
-  std::string refinement;
-  if (pcl::console::parse_argument(argc, argv, "-refinement", refinement) >= 0) {
-    if (refinement != "on" && refinement != "off") {
-      print_error("pcl_mi_align: -refinement must be on or off, got '%s'\n", refinement.c_str());
-      return 1;
-    }
-    parameters.refinement = refinement == "on" ? pcl_mi::Refinement::PointToDistribution
-                                               : pcl_mi::Refinement::None;
-  }
-  if (feature == "varz")
-    parameters.feature = pcl_mi::Feature::VarianceZ;
-  else if (feature == "count")
-    parameters.feature = pcl_mi::Feature::PointCount;
-  else {
-    print_error("pcl_mi_align: -feature must be varz or count, got '%s'\n", feature.c_str());
-    return 1;
-  }
-  // Device events cost time per evaluation, so only a profiled run takes them.
-  parameters.profile_device = pcl::console::find_switch(argc, argv, "-profile");
-  const std::string invalid = parameters.validate();
+  int max_iterations = reg.getMaximumIterations();
+  const std::string invalid =
+      pcl_mi::apps::applyMiOptions(argc, argv, parameters, max_iterations);
   if (!invalid.empty()) {
     print_error("pcl_mi_align: %s\n", invalid.c_str());
     return 1;
   }
   reg.setParameters(parameters);
+  reg.setMaximumIterations(max_iterations);
+  const double resolution = parameters.grid.resolution;
+  const bool varz = parameters.grid.feature == pcl_mi::Feature::VarianceZ;
 
   print_info("Source: ");
   print_value("%s (%zu points)\n", source_path.c_str(), source->size());
   print_info("Target: ");
   print_value("%s (%zu points)\n", target_path.c_str(), target->size());
-  print_info("MI-%s, resolution ", feature == "varz" ? "VARZ" : "N");
+  print_info("MI-%s, resolution ", varz ? "VARZ" : "N");
   print_value("%g\n", resolution);
 
   const auto start = std::chrono::steady_clock::now();
@@ -354,7 +262,7 @@ run(int argc, char** argv)
   if (reg.getLastResult().position_starts > 0) {
     print_info("Position starts: ");
     print_value("%d%s\n", reg.getLastResult().position_starts,
-                reg.getLastResult().position_starts > parameters.position_starts
+                reg.getLastResult().position_starts > parameters.search.position_starts
                     ? " (narrow field of view)"
                     : "");
   }

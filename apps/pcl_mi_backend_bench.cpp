@@ -38,30 +38,6 @@ struct Pair {
   Eigen::Matrix4d reference; // source to target
 };
 
-/** KITTI Velodyne scan: float32 x, y, z, intensity per point. */
-bool
-loadBin(const std::string& path, pcl_mi::PointList& points, std::string& error)
-{
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) {
-    error = "cannot open '" + path + "'";
-    return false;
-  }
-  const std::streamsize bytes = in.tellg();
-  if (bytes <= 0 || bytes % 16 != 0) {
-    error = "'" + path + "' is not a KITTI .bin scan (size not a multiple of 16 bytes)";
-    return false;
-  }
-  std::vector<float> raw(static_cast<std::size_t>(bytes / 4));
-  in.seekg(0);
-  in.read(reinterpret_cast<char*>(raw.data()), bytes);
-  points.clear();
-  points.reserve(raw.size() / 4);
-  for (std::size_t i = 0; i + 3 < raw.size(); i += 4)
-    points.emplace_back(raw[i], raw[i + 1], raw[i + 2]);
-  return true;
-}
-
 double
 rotationErrorDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 {
@@ -205,9 +181,12 @@ run(int argc, char** argv)
     }
     p.reference = pcl_mi::kitti::relativeVelodyneTransform(tr, poses[p.target_frame],
                                                            poses[p.source_frame]);
-    std::string error;
-    if (!loadBin(pcl_mi::kitti::scanPath(root, p.sequence, p.target_frame), p.target, error) ||
-        !loadBin(pcl_mi::kitti::scanPath(root, p.sequence, p.source_frame), p.source, error)) {
+    std::string error =
+        pcl_mi::kitti::loadScan(pcl_mi::kitti::scanPath(root, p.sequence, p.target_frame), p.target);
+    if (error.empty())
+      error = pcl_mi::kitti::loadScan(pcl_mi::kitti::scanPath(root, p.sequence, p.source_frame),
+                                      p.source);
+    if (!error.empty()) {
       std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", error.c_str());
       return 1;
     }
@@ -228,14 +207,14 @@ run(int argc, char** argv)
     for (const auto& backend_name : split(backends_arg, ',')) {
       std::string error;
       pcl_mi::Parameters parameters = configParameters(config, error);
-      if (!error.empty() || !pcl_mi::parseBackend(backend_name, parameters.backend)) {
+      if (!error.empty() || !pcl_mi::parseBackend(backend_name, parameters.backend.type)) {
         std::fprintf(stderr, "pcl_mi_backend_bench: %s\n",
                      error.empty() ? ("unknown backend '" + backend_name + "'").c_str()
                                    : error.c_str());
         return 1;
       }
-      parameters.opencl_platform = platform;
-      parameters.opencl_device = device;
+      parameters.backend.opencl_platform = platform;
+      parameters.backend.opencl_device = device;
       if (threads > 0)
         parameters.num_threads = threads;
       for (const auto& p : pairs) {
@@ -335,7 +314,7 @@ run(int argc, char** argv)
         // The backend stage tables come from a second pass with device profiling on: its
         // events slow every evaluation down, so the timings above ran without.
         pcl_mi::Parameters profiled = parameters;
-        profiled.profile_device = true;
+        profiled.backend.profile_device = true;
         core.setParameters(profiled); // new backends, the same target and source
         core.align(Eigen::Matrix4d::Identity());
         row.align_profile = core.backendProfile();

@@ -6,6 +6,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "app_util.h"
+#include "mi_options.h"
 
 #include <pcl_mi/io.h>
 #include <pcl_mi/kitti.h>
@@ -253,14 +254,11 @@ yawDegrees(const Eigen::Matrix4d& t)
 }
 
 /** Overrides of the MI defaults from the command line (negative: keep the default). */
-struct MiOverrides {
-  int subdivision = -1, levels = -1, restarts = -1, heading_starts = -1, position_starts = -1,
-      narrow_view_starts = -1;
-  double resolution = -1.0;
-  bool has_steps = false;
-  Eigen::Matrix<double, 6, 1> steps; ///< tx, ty, tz (the clouds' units), roll, pitch, yaw
-  pcl_mi::Backend backend = pcl_mi::Backend::Cpu;
-} mi_overrides;
+/** The command line, whose MI options tune every MI method (apps/mi_options.h). */
+struct MiArguments {
+  int argc;
+  char** argv;
+};
 
 /** gicp-coarse: voxel leaf (m) of both clouds and the correspondence distance (m). */
 constexpr float kCoarseGicpLeaf = 0.25f;
@@ -281,7 +279,7 @@ methodLeaf(const std::string& name)
 
 /** Settings that use no knowledge of the true pose; see the README's comparison notes. */
 std::unique_ptr<pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>>
-makeMethod(const std::string& name)
+makeMethod(const std::string& name, const MiArguments& mi_arguments)
 {
   if (name.rfind("mi-", 0) == 0) { // mi-varz, mi-n, and the paper's search: mi-varz-paper
     auto mi = std::make_unique<pcl::MutualInformationRegistration<pcl::PointXYZ>>();
@@ -290,24 +288,12 @@ makeMethod(const std::string& name)
     if (feature != "varz" && feature != "n")
       return nullptr;
     pcl_mi::Parameters p = paper ? pcl_mi::Parameters::paper() : pcl_mi::Parameters();
-    p.feature = feature == "n" ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
-    if (mi_overrides.resolution > 0.0)
-      p.resolution = mi_overrides.resolution;
-    if (mi_overrides.has_steps)
-      p.simplex_steps = mi_overrides.steps;
-    if (mi_overrides.subdivision >= 0)
-      p.source_subdivision = mi_overrides.subdivision;
-    if (mi_overrides.levels >= 0)
-      p.pyramid_levels = mi_overrides.levels;
-    if (mi_overrides.restarts >= 0)
-      p.restarts = mi_overrides.restarts;
-    if (mi_overrides.heading_starts >= 0)
-      p.heading_starts = mi_overrides.heading_starts;
-    if (mi_overrides.position_starts >= 0)
-      p.position_starts = mi_overrides.position_starts;
-    if (mi_overrides.narrow_view_starts >= 0)
-      p.narrow_view_position_starts = mi_overrides.narrow_view_starts;
-    p.backend = mi_overrides.backend;
+    p.grid.feature = feature == "n" ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
+    int max_iterations = mi->getMaximumIterations();
+    if (!pcl_mi::apps::applyMiOptions(mi_arguments.argc, mi_arguments.argv, p, max_iterations)
+             .empty())
+      return nullptr;
+    mi->setMaximumIterations(max_iterations);
     if (!mi->setParameters(p))
       return nullptr;
     return mi;
@@ -363,19 +349,20 @@ downsampled(const Cloud::Ptr& cloud, float leaf)
 
 /** True for a method name or a chain of them ("A+B": B started from A's result). */
 bool
-knownMethod(const std::string& name)
+knownMethod(const std::string& name, const MiArguments& mi)
 {
   const auto plus = name.rfind('+');
   if (plus == std::string::npos)
-    return makeMethod(name) != nullptr;
-  return knownMethod(name.substr(0, plus)) && makeMethod(name.substr(plus + 1)) != nullptr;
+    return makeMethod(name, mi) != nullptr;
+  return knownMethod(name.substr(0, plus), mi) && makeMethod(name.substr(plus + 1), mi) != nullptr;
 }
 
 Row
 runMethod(const std::string& chain,
           const Cloud::Ptr& source,
           const Cloud::Ptr& target,
-          const Pair& pair)
+          const Pair& pair,
+          const MiArguments& mi)
 {
   // A chain "A+B" runs B from A's result; its time is the sum, its evaluations A's.
   const auto plus = chain.rfind('+');
@@ -383,10 +370,10 @@ runMethod(const std::string& chain,
   Pair start_pair = pair;
   Row previous;
   if (plus != std::string::npos) {
-    previous = runMethod(chain.substr(0, plus), source, target, pair);
+    previous = runMethod(chain.substr(0, plus), source, target, pair, mi);
     start_pair.guess = previous.estimate;
   }
-  auto reg = makeMethod(name);
+  auto reg = makeMethod(name, mi);
   const auto start = std::chrono::steady_clock::now();
   Cloud::Ptr input = source, reference_cloud = target;
   if (methodLeaf(name) > 0.0f) {
@@ -650,15 +637,10 @@ printHelp(const char* program)
       "  -csv FILE             one row per (pair, method)\n"
       "  -shard K/N            run only pairs K, K+N, K+2N, ... (K in 1..N), for GNU parallel\n"
       "                        or Slurm arrays; combine the shards' CSVs with -merge\n"
-      "  -resolution R, -subdivision N, -levels N, -restarts N   override MI parameters\n"
-      "                        (the refinement cube and tolerance follow -resolution)\n"
-      "  -steps tx,ty,tz,roll,pitch,yaw   MI's initial simplex (the clouds' units, deg)\n"
-      "  -heading_starts N     MI's coarsest level starts from N headings (default 1)\n"
-      "  -position_starts N    ... and from N further positions around the guess (default 0)\n"
-      "  -narrow_view_starts N ... or N where either cloud covers < 180 deg of azimuth\n"
-      "                        (default 8; 0 = off)\n",
+      "\n%s",
       program,
-      program);
+      program,
+      pcl_mi::apps::miOptionsHelp(pcl_mi::apps::MiOptionSet::Tuning).c_str());
 }
 
 int
@@ -666,7 +648,26 @@ run(int argc, char** argv)
 {
   if (pcl::console::find_switch(argc, argv, "-h") || argc < 2) {
     printHelp(argv[0]);
-    return argc < 2 ? 1 : 0;
+    return argc < 2 ? 2 : 0;
+  }
+  using pcl_mi::apps::OptionValue;
+  const std::string bad_option = pcl_mi::apps::checkOptions(
+      argc, argv, 0,
+      pcl_mi::apps::join(
+          {{"-kitti", OptionValue::Text},      {"-list", OptionValue::Text},
+           {"-merge", OptionValue::Files},     {"-csv", OptionValue::Text},
+           {"-methods", OptionValue::Text},    {"-sequences", OptionValue::Text},
+           {"-frames", OptionValue::Number},   {"-poses", OptionValue::Text},
+           {"-distance", OptionValue::Numbers}, {"-max_yaw", OptionValue::Number},
+           {"-pairs", OptionValue::Text},      {"-stride", OptionValue::Number},
+           {"-repeat", OptionValue::Number},   {"-shuffle", OptionValue::Number},
+           {"-directions", OptionValue::Text}, {"-perturb", OptionValue::Numbers},
+           {"-seed", OptionValue::Number},     {"-success", OptionValue::Numbers},
+           {"-shard", OptionValue::Text}},
+          pcl_mi::apps::miOptionTable(pcl_mi::apps::MiOptionSet::Tuning)));
+  if (!bad_option.empty()) {
+    print_error("pcl_mi_compare: %s\n", bad_option.c_str());
+    return 2;
   }
   std::string root, sequences_arg = "00,01,02,05,08", poses_kind = "auto";
   std::string methods_arg = "mi-varz,mi-n,gicp,ndt", directions = "both", csv_path, pairs_arg;
@@ -693,38 +694,22 @@ run(int argc, char** argv)
   pcl::console::parse_argument(argc, argv, "-repeat", repeat);
   pcl::console::parse_argument(argc, argv, "-shuffle", shuffle_seed);
   pcl::console::parse_argument(argc, argv, "-max_yaw", max_yaw);
-  if (pcl::console::parse_argument(argc, argv, "-resolution", mi_overrides.resolution) >= 0 &&
-      !(mi_overrides.resolution > 0.0 && std::isfinite(mi_overrides.resolution))) {
-    print_error("pcl_mi_compare: -resolution must be positive and finite\n");
-    return 1;
-  }
-  std::vector<double> steps;
-  mi_overrides.has_steps = pcl::console::parse_x_arguments(argc, argv, "-steps", steps) >= 0;
-  if (mi_overrides.has_steps &&
-      !pcl_mi::apps::poseVectorFromDegrees(steps, mi_overrides.steps)) {
-    print_error("pcl_mi_compare: -steps takes 6 comma-separated values\n");
-    return 1;
-  }
-  pcl::console::parse_argument(argc, argv, "-subdivision", mi_overrides.subdivision);
-  pcl::console::parse_argument(argc, argv, "-levels", mi_overrides.levels);
-  pcl::console::parse_argument(argc, argv, "-restarts", mi_overrides.restarts);
-  pcl::console::parse_argument(argc, argv, "-heading_starts", mi_overrides.heading_starts);
-  pcl::console::parse_argument(argc, argv, "-position_starts", mi_overrides.position_starts);
-  pcl::console::parse_argument(argc, argv, "-narrow_view_starts",
-                               mi_overrides.narrow_view_starts);
-  std::string backend = "cpu";
-  pcl::console::parse_argument(argc, argv, "-backend", backend);
-  if (!pcl_mi::parseBackend(backend, mi_overrides.backend)) {
-    std::fprintf(stderr, "pcl_mi_compare: -backend must be cpu, opencl or auto, got '%s'\n",
-                 backend.c_str());
-    return 1;
+  const MiArguments mi{argc, argv};
+  {
+    pcl_mi::Parameters p;
+    int max_iterations = pcl_mi::kDefaultMaxIterations;
+    const std::string invalid = pcl_mi::apps::applyMiOptions(argc, argv, p, max_iterations);
+    if (!invalid.empty()) {
+      print_error("pcl_mi_compare: %s\n", invalid.c_str());
+      return 1;
+    }
   }
   pcl::console::parse_x_arguments(argc, argv, "-distance", distance);
   pcl::console::parse_x_arguments(argc, argv, "-perturb", perturb);
   pcl::console::parse_x_arguments(argc, argv, "-success", success);
   const auto methods = split(methods_arg, ',');
   for (const auto& m : methods)
-    if (!knownMethod(m)) {
+    if (!knownMethod(m, mi)) {
       print_error("pcl_mi_compare: unknown method '%s'\n", m.c_str());
       return 1;
     }
@@ -927,11 +912,11 @@ run(int argc, char** argv)
       std::printf("[%3zu/%zu] %s %d->%d %5.2f m:", k + 1, pairs.size(), p.sequence.c_str(),
                   p.source_frame, p.target_frame, truth.translation);
     for (const auto& m : methods) {
-      Row row = runMethod(m, src, tgt, p);
+      Row row = runMethod(m, src, tgt, p, mi);
       if (repeat > 1) { // report the median time; the results are identical every run
         std::vector<double> seconds{row.seconds};
         for (int r = 1; r < repeat; ++r)
-          seconds.push_back(runMethod(m, src, tgt, p).seconds);
+          seconds.push_back(runMethod(m, src, tgt, p, mi).seconds);
         std::nth_element(seconds.begin(), seconds.begin() + repeat / 2, seconds.end());
         row.seconds = seconds[static_cast<std::size_t>(repeat / 2)];
       }

@@ -5,6 +5,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "app_util.h"
+#include "mi_options.h"
 
 #include <pcl_mi/io.h>
 #include <pcl_mi/mutual_information_registration.h>
@@ -98,14 +99,28 @@ run(int argc, char** argv)
         "  -step M               grid step in m (default 0.25)\n"
         "  -yaw_extent DEG       half-width of the heading sweep (default 45)\n"
         "  -yaw_step DEG         heading step (default 0.5)\n"
-        "  -resolution R, -feature varz|count   MI settings (defaults 1, varz)\n"
         "  -toward FILE          also sample the line from REFERENCE to the pose in FILE\n"
         "                        (4x4 or 3x4 text, e.g. pcl_mi_align -transform): writes\n"
         "                        PREFIX_line.csv (s, offset_m, mi, gicp) for s from -0.5\n"
         "                        (beyond REFERENCE) to 1.5 (beyond FILE's pose)\n"
-        "Plot with: pcl_mi_plot_cost_surface.py PREFIX\n",
-        argv[0]);
+        "Plot with: pcl_mi_plot_cost_surface.py PREFIX\n"
+        "\n%s",
+        argv[0], pcl_mi::apps::miOptionsHelp(pcl_mi::apps::MiOptionSet::All).c_str());
     return pcl::console::find_switch(argc, argv, "-h") ? 0 : 2;
+  }
+  using pcl_mi::apps::OptionValue;
+  const std::string bad_option = pcl_mi::apps::checkOptions(
+      argc, argv, 3,
+      pcl_mi::apps::join({{"-o", OptionValue::Text},
+                          {"-extent", OptionValue::Number},
+                          {"-step", OptionValue::Number},
+                          {"-yaw_extent", OptionValue::Number},
+                          {"-yaw_step", OptionValue::Number},
+                          {"-toward", OptionValue::Text}},
+                         pcl_mi::apps::miOptionTable(pcl_mi::apps::MiOptionSet::All)));
+  if (!bad_option.empty()) {
+    print_error("pcl_mi_cost_surface: %s\n", bad_option.c_str());
+    return 2;
   }
   pcl::PointCloud<pcl::PointXYZI> xyzi;
   auto source = pcl::make_shared<Cloud>(), target = pcl::make_shared<Cloud>();
@@ -123,7 +138,7 @@ run(int argc, char** argv)
     print_error("pcl_mi_cost_surface: %s\n", error.c_str());
     return 1;
   }
-  std::string prefix = "cost_surface", feature = "varz", toward_path;
+  std::string prefix = "cost_surface", toward_path;
   pcl::console::parse_argument(argc, argv, "-toward", toward_path);
   Eigen::Matrix4d toward = reference;
   if (!toward_path.empty()) {
@@ -133,24 +148,27 @@ run(int argc, char** argv)
       return 1;
     }
   }
-  double extent = 10.0, step = 0.25, yaw_extent = 45.0, yaw_step = 0.5, resolution = 1.0;
+  double extent = 10.0, step = 0.25, yaw_extent = 45.0, yaw_step = 0.5;
   pcl::console::parse_argument(argc, argv, "-o", prefix);
   pcl::console::parse_argument(argc, argv, "-extent", extent);
   pcl::console::parse_argument(argc, argv, "-step", step);
   pcl::console::parse_argument(argc, argv, "-yaw_extent", yaw_extent);
   pcl::console::parse_argument(argc, argv, "-yaw_step", yaw_step);
-  pcl::console::parse_argument(argc, argv, "-resolution", resolution);
-  pcl::console::parse_argument(argc, argv, "-feature", feature);
   if (!(step > 0) || !(yaw_step > 0) || !(extent >= 0) || !(yaw_extent >= 0) ||
-      extent / step > 1000 || yaw_extent / yaw_step > 10000 ||
-      (feature != "varz" && feature != "count")) {
-    print_error("pcl_mi_cost_surface: bad grid or feature (see -h)\n");
+      extent / step > 1000 || yaw_extent / yaw_step > 10000) {
+    print_error("pcl_mi_cost_surface: bad grid (see -h)\n");
     return 1;
   }
 
   pcl::MutualInformationRegistration<pcl::PointXYZ, pcl::PointXYZ, double> reg;
-  reg.setResolution(resolution);
-  reg.setFeature(feature == "count" ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ);
+  pcl_mi::Parameters parameters = reg.getParameters();
+  int max_iterations = reg.getMaximumIterations();
+  error = pcl_mi::apps::applyMiOptions(argc, argv, parameters, max_iterations);
+  if (!error.empty()) {
+    print_error("pcl_mi_cost_surface: %s\n", error.c_str());
+    return 1;
+  }
+  reg.setParameters(parameters);
   reg.setInputSource(source);
   reg.setInputTarget(target);
   if (reg.evaluate(reference) < 0.0)

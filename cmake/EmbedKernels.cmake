@@ -1,8 +1,15 @@
-# Script mode (cmake -P): embeds an OpenCL source file into a C++ file as a string.
-#   -DINPUT=kernels/joint_histogram.cl -DOUTPUT=.../kernels.cpp -DSYMBOL=kJointHistogramKernelSource
-file(READ "${INPUT}" content)
+# Script mode (cmake -P): embeds OpenCL sources into a C++ file as one string, in order.
+#   -DINPUTS="kernels/voxel_math.h;kernels/joint_histogram.cl" -DOUTPUT=.../kernels.cpp
+#   -DSYMBOL=kJointHistogramKernelSource
+# The shared per-voxel arithmetic (voxel_math.h) goes first, so the kernels need no
+# #include and the program builds from one string.
+set(content "")
+foreach(input IN LISTS INPUTS)
+  file(READ "${input}" text)
+  string(APPEND content "${text}\n")
+endforeach()
 file(WRITE "${OUTPUT}.tmp"
-  "// Generated from ${INPUT} by cmake/EmbedKernels.cmake; do not edit.\n"
+  "// Generated from ${INPUTS} by cmake/EmbedKernels.cmake; do not edit.\n"
   "namespace pcl_mi {\nnamespace backend {\n"
   "extern const char* const ${SYMBOL};\n"
   "const char* const ${SYMBOL} = R\"pcl_mi_kernel(${content})pcl_mi_kernel\";\n"

@@ -55,19 +55,19 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
   // Resolutions from 0.05 m to 12.8 m (fine ones exercise the grid-size cap) or, for a
   // high selector byte, an arbitrary (possibly invalid) value.
   const std::uint8_t r = in.byte();
-  p.resolution = r < 250 ? 0.05 * (1 + r) : static_cast<double>(coordinate(in));
-  p.feature = in.byte() % 2 ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
-  p.pyramid_levels = in.byte() % 4; // 0 is invalid
-  p.source_subdivision = in.byte() % 5;
-  p.refinement = in.byte() % 2 ? pcl_mi::Refinement::None : pcl_mi::Refinement::PointToDistribution;
-  p.restarts = in.byte() % 3;
-  p.symmetric_start = in.byte() % 2;
+  p.grid.resolution = r < 250 ? 0.05 * (1 + r) : static_cast<double>(coordinate(in));
+  p.grid.feature = in.byte() % 2 ? pcl_mi::Feature::PointCount : pcl_mi::Feature::VarianceZ;
+  p.grid.pyramid_levels = in.byte() % 4; // 0 is invalid
+  p.sampling.source_subdivision = in.byte() % 5;
+  p.refinement.method = in.byte() % 2 ? pcl_mi::Refinement::None : pcl_mi::Refinement::PointToDistribution;
+  p.search.restarts = in.byte() % 3;
+  p.search.symmetric_start = in.byte() % 2;
   p.num_threads = 1 + in.byte() % 2;
-  p.max_iterations = 1 + in.byte() % 64; // bounded work per input
-  p.refinement_max_iterations = 1 + in.byte() % 5;
+  const int max_iterations = 1 + in.byte() % 64; // bounded work per input
+  p.refinement.max_iterations = 1 + in.byte() % 5;
   for (int i = 0; i < 6; ++i)
     if (in.byte() % 4 == 0)
-      p.simplex_steps[i] = 0.0;
+      p.search.simplex_steps[i] = 0.0;
   pcl_mi::RegistrationCore core;
   if (!core.setParameters(p).empty())
     return 0; // refused, as it must be for invalid values
@@ -81,7 +81,7 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
   guess(0, 0) = guess(1, 1) = std::cos(yaw);
   guess(0, 1) = -std::sin(yaw);
   guess(1, 0) = std::sin(yaw);
-  const pcl_mi::AlignmentResult result = core.align(guess);
+  const pcl_mi::AlignmentResult result = core.align(guess, max_iterations);
   // Success means a finite rigid transformation; failure means a reason.
   if (result.error.empty()) {
     if (!result.transformation.allFinite())

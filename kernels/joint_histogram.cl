@@ -7,24 +7,13 @@
  *   histogram_*      per-voxel features and the joint histogram (map into local-memory
  *                    integer histograms, merged with atomics)
  *   clear_touched    reset the voxels this evaluation touched
- * Every operation mirrors src/backend/cpu_backend.cpp and src/core/feature_binning.h in
- * the same order, with contraction into fused multiply-adds off, so the histograms are
- * bit-for-bit those of the CPU backend. OpenCL C 1.2; the feature values use double
- * (cl_khr_fp64), as the CPU does.
+ * The per-voxel arithmetic is kernels/voxel_math.h's, which the build prepends to this
+ * file and the CPU backend includes, so the histograms are bit-for-bit the CPU backend's.
+ * OpenCL C 1.2; the feature values use double (cl_khr_fp64), as the CPU does.
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF
-
-#define HEIGHT_LEVELS 256
-
-/* One source sample: position, point count and the 6 covariance terms (xx xy xz yy yz zz). */
-typedef struct {
-  float px, py, pz;
-  uint count;
-  float c[6];
-  float pad[2];
-} Sample;
 
 /* Integer moments of one voxel: count, sum of quantised heights, and the 64-bit sum of
  * their squares split into two words (OpenCL 1.2 has no 64-bit atomics). */
@@ -34,21 +23,6 @@ typedef struct {
   uint sum_q2_lo;
   uint sum_q2_hi;
 } Moments;
-
-/* Occupied target voxel: cell index, coordinates and bin. */
-typedef struct {
-  uint cell;
-  int ix, iy, iz;
-  uint bin;
-} OccupiedVoxel;
-
-/* The pose in grid units: f = R p + t. */
-typedef struct {
-  float r[9];      /* row-major, already divided by the resolution */
-  float t[3];      /* (translation - origin) / resolution */
-  float rz[3];     /* third row of the unscaled rotation */
-  float variance_scale;
-} Pose;
 
 static void add_u64(volatile __global uint* lo, volatile __global uint* hi, ulong value)
 {
@@ -86,9 +60,9 @@ static void store_box(__local float* box, const uint lid, const float3 mn, const
   box[6 * lid + 5] = mx.z;
 }
 
-__kernel void map_samples(__global const Sample* samples,
+__kernel void map_samples(__global const pcl_mi_sample* samples,
                           const uint num_samples,
-                          const Pose pose,
+                          const pcl_mi_grid_pose pose,
                           const int4 dims,
                           const uint has_covariance,
                           __global Moments* moments,
@@ -102,11 +76,11 @@ __kernel void map_samples(__global const Sample* samples,
   float3 mn = (float3)(FLT_MAX, FLT_MAX, FLT_MAX);
   float3 mx = -mn;
   if (i < num_samples) {
-    const Sample s = samples[i];
+    const pcl_mi_sample s = samples[i];
     float3 f;
-    f.x = ((pose.r[0] * s.px + pose.r[1] * s.py) + pose.r[2] * s.pz) + pose.t[0];
-    f.y = ((pose.r[3] * s.px + pose.r[4] * s.py) + pose.r[5] * s.pz) + pose.t[1];
-    f.z = ((pose.r[6] * s.px + pose.r[7] * s.py) + pose.r[8] * s.pz) + pose.t[2];
+    f.x = pcl_mi_moved(pose.r[0], pose.r[1], pose.r[2], pose.t[0], s.px, s.py, s.pz);
+    f.y = pcl_mi_moved(pose.r[3], pose.r[4], pose.r[5], pose.t[1], s.px, s.py, s.pz);
+    f.z = pcl_mi_moved(pose.r[6], pose.r[7], pose.r[8], pose.t[2], s.px, s.py, s.pz);
     mn = f;
     mx = f;
     const float3 end = (float3)((float)dims.x, (float)dims.y, (float)dims.z);
@@ -115,16 +89,12 @@ __kernel void map_samples(__global const Sample* samples,
     if (inside) {
       const int ix = (int)f.x, iy = (int)f.y, iz = (int)f.z;
       const uint cell = ((uint)iz * (uint)dims.y + (uint)iy) * (uint)dims.x + (uint)ix;
-      int q = (int)((f.z - (float)iz) * HEIGHT_LEVELS);
-      q = min(max(q, 0), HEIGHT_LEVELS - 1);
+      const int q = pcl_mi_quantise_height(f.z, iz);
       uint n = 1u;
       ulong q2 = (ulong)q * (ulong)q;
       if (has_covariance) {
-        const float* c = s.c;
-        const float rx = pose.rz[0], ry = pose.rz[1], rzz = pose.rz[2];
-        const float variance_z = rx * (rx * c[0] + 2.0f * (ry * c[1] + rzz * c[2])) +
-                                 ry * (ry * c[3] + 2.0f * rzz * c[4]) + rzz * rzz * c[5];
-        const uint variance_q = (uint)(fmax(0.0f, variance_z) * pose.variance_scale + 0.5f);
+        const uint variance_q = pcl_mi_variance_levels(pose.rz[0], pose.rz[1], pose.rz[2], s.c,
+                                                       pose.variance_scale);
         n = s.count;
         q2 = (ulong)n * (q2 + (ulong)variance_q);
       }
@@ -177,16 +147,6 @@ __kernel void reduce_overlap(__global const float* group_boxes,
   overlap[6] = ok;
 }
 
-static int bin_of_value(const uint num_bins, const double max_value, const double value)
-{
-  const double scaled = num_bins * value / max_value;
-  if (!(scaled > 0.0))
-    return 1;
-  if (scaled >= num_bins)
-    return (int)num_bins;
-  return 1 + (int)scaled;
-}
-
 static int voxel_bin(const uint feature, const uint num_bins, const double max_value,
                      const Moments m)
 {
@@ -196,14 +156,11 @@ static int voxel_bin(const uint feature, const uint num_bins, const double max_v
   if (feature == 1u) { /* PointCount */
     value = (double)m.count;
   }
-  else { /* VarianceZ: var(z) / R_v^2 = (n S2 - S1^2) / (n^2 L^2) */
-    const double n = (double)m.count;
-    const double s1 = (double)m.sum_q;
+  else { /* VarianceZ */
     const double s2 = (double)(((ulong)m.sum_q2_hi << 32) | (ulong)m.sum_q2_lo);
-    const double numerator = fmax(0.0, n * s2 - s1 * s1);
-    value = numerator / (n * n * (double)HEIGHT_LEVELS * HEIGHT_LEVELS);
+    value = pcl_mi_variance_z_value((double)m.count, (double)m.sum_q, s2);
   }
-  return bin_of_value(num_bins, max_value, value);
+  return pcl_mi_bin_of_value((int)num_bins, max_value, value);
 }
 
 /* Source-occupied voxels: (target bin, source bin). */
@@ -237,7 +194,7 @@ __kernel void histogram_touched(__global const uint* touched,
 }
 
 /* Target-occupied voxels in the overlap that the source left empty: (target bin, 0). */
-__kernel void histogram_target_only(__global const OccupiedVoxel* occupied,
+__kernel void histogram_target_only(__global const pcl_mi_occupied_voxel* occupied,
                                     const uint num_occupied,
                                     __global const Moments* moments,
                                     __global const int* overlap,
@@ -251,7 +208,7 @@ __kernel void histogram_target_only(__global const OccupiedVoxel* occupied,
   barrier(CLK_LOCAL_MEM_FENCE);
   const uint i = get_global_id(0);
   if (i < num_occupied && overlap[6]) {
-    const OccupiedVoxel v = occupied[i];
+    const pcl_mi_occupied_voxel v = occupied[i];
     if (v.ix >= overlap[0] && v.iy >= overlap[1] && v.iz >= overlap[2] && v.ix <= overlap[3] &&
         v.iy <= overlap[4] && v.iz <= overlap[5] && moments[v.cell].count == 0u)
       atomic_inc(&local_joint[v.bin]);

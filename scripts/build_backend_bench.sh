@@ -11,10 +11,11 @@ mkdir -p "$out"
 cmake -DINPUT=kernels/joint_histogram.cl -DOUTPUT="$out/joint_histogram_kernel.cpp" \
       -DSYMBOL=kJointHistogramKernelSource -P cmake/EmbedKernels.cmake
 eigen=$(pkg-config --cflags eigen3 2>/dev/null || echo -I/usr/include/eigen3)
-flags=(-std=c++17 -O3 -DNDEBUG -DPCL_MI_WITH_OPENCL=1 -Iinclude -Isrc $eigen -pthread)
+flags=(-std=c++17 -O3 -DNDEBUG -DPCL_MI_WITH_OPENCL=1 -Iinclude -Isrc -I. $eigen -pthread)
 objs=()
 pids=()
-for src in src/registration_core.cpp src/core/*.cpp src/backend/cpu_backend.cpp \
+for src in src/engine/*.cpp src/search/*.cpp src/refine/*.cpp src/features/*.cpp \
+           src/backend/backend_factory.cpp src/backend/cpu_backend.cpp \
            src/backend/opencl_backend.cpp src/io/kitti.cpp src/io/file_checks.cpp \
            apps/pcl_mi_backend_bench.cpp \
            "$out/joint_histogram_kernel.cpp"; do

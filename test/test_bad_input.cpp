@@ -227,7 +227,7 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   EXPECT_EQ(reg.getRefinementResolution(), 1.4);
   reg.setResolution(0.5);
   reg.setNumberOfRestarts(-1);
-  EXPECT_EQ(reg.getNumberOfRestarts(), pcl_mi::Parameters().restarts);
+  EXPECT_EQ(reg.getNumberOfRestarts(), pcl_mi::Parameters().search.restarts);
   reg.setNumberOfHeadingStarts(0);
   EXPECT_EQ(reg.getNumberOfHeadingStarts(), 1);
   reg.setNumberOfHeadingStarts(361);
@@ -246,9 +246,9 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   EXPECT_EQ(reg.getNarrowViewPositionStarts(), 0);
 
   pcl_mi::Parameters bad;
-  bad.max_iterations = 0;
+  bad.refinement.max_iterations = 0;
   EXPECT_FALSE(reg.setParameters(bad));
-  EXPECT_EQ(reg.getParameters().max_iterations, 1000);
+  EXPECT_EQ(reg.getParameters().refinement.max_iterations, 20);
 }
 
 TEST(BadParameters, BackendNamesParseStrictly)

@@ -3,9 +3,10 @@
  * joint histogram on hand-built clouds.
  */
 #include "backend/scoring_backend.h"
-#include "core/feature_binning.h"
-#include "core/source_samples.h"
-#include "core/voxel_grid.h"
+#include "features/feature_binning.h"
+#include <pcl_mi/parameters.h>
+#include "features/source_samples.h"
+#include "features/voxel_grid.h"
 
 #include <gtest/gtest.h>
 
@@ -201,15 +202,15 @@ TEST(TargetGrid, RangeQuantileMakesPointCountBinsIndependentOfSensorDensity)
 
 TEST(Parameters, PointCountRangeAdaptsByDefaultAndIsFixedInThePaperPreset)
 {
-  EXPECT_DOUBLE_EQ(Parameters().point_count_binning.range_quantile, 0.75);
-  EXPECT_DOUBLE_EQ(Parameters().variance_z_binning.range_quantile, 0.0);
-  EXPECT_DOUBLE_EQ(Parameters::paper().point_count_binning.range_quantile, 0.0);
-  EXPECT_EQ(Parameters().narrow_view_position_starts, 8);
-  EXPECT_EQ(Parameters::paper().narrow_view_position_starts, 0);
+  EXPECT_DOUBLE_EQ(Parameters().grid.point_count_binning.range_quantile, 0.75);
+  EXPECT_DOUBLE_EQ(Parameters().grid.variance_z_binning.range_quantile, 0.0);
+  EXPECT_DOUBLE_EQ(Parameters::paper().grid.point_count_binning.range_quantile, 0.0);
+  EXPECT_EQ(Parameters().search.narrow_view_position_starts, 8);
+  EXPECT_EQ(Parameters::paper().search.narrow_view_position_starts, 0);
   Parameters p;
-  p.point_count_binning.range_quantile = 1.5;
+  p.grid.point_count_binning.range_quantile = 1.5;
   EXPECT_NE(p.validate().find("quantile"), std::string::npos);
-  p.point_count_binning.range_quantile = std::nan("");
+  p.grid.point_count_binning.range_quantile = std::nan("");
   EXPECT_NE(p.validate().find("quantile"), std::string::npos);
 }
 

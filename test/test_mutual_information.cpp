@@ -1,7 +1,7 @@
 /*
  * Entropy and MI against hand-computed values.
  */
-#include "core/mutual_information.h"
+#include "features/mutual_information.h"
 
 #include <gtest/gtest.h>
 

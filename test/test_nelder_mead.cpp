@@ -1,7 +1,7 @@
 /*
  * Nelder-Mead on known 6-D functions from the paper's anisotropic simplex.
  */
-#include "core/nelder_mead.h"
+#include "search/nelder_mead.h"
 
 #include <gtest/gtest.h>
 

@@ -45,10 +45,10 @@ makeCore(Backend backend, pcl_mi::Feature feature, int levels, int subdivision,
 {
   pcl_mi::RegistrationCore core;
   pcl_mi::Parameters p;
-  p.backend = backend;
-  p.feature = feature;
-  p.pyramid_levels = levels;
-  p.source_subdivision = subdivision;
+  p.backend.type = backend;
+  p.grid.feature = feature;
+  p.grid.pyramid_levels = levels;
+  p.sampling.source_subdivision = subdivision;
   EXPECT_EQ(core.setParameters(p), "");
   core.setSource(source);
   core.setTarget(target);

@@ -37,7 +37,7 @@ TEST(NoOpenClDevice, AutoFallsBackToTheCpuAndExplicitOpenClFailsClearly)
   // With every point in every evaluation Auto wants a GPU, finds no platform and warns.
   pcl::MutualInformationRegistration<pcl::PointXYZ> every_point;
   pcl_mi::Parameters paper = pcl_mi::Parameters::paper();
-  paper.backend = pcl_mi::Backend::Auto;
+  paper.backend.type = pcl_mi::Backend::Auto;
   every_point.setParameters(paper);
   every_point.setInputSource(source);
   every_point.setInputTarget(target);

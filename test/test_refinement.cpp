@@ -1,9 +1,9 @@
 /*
  * The source-sample pyramid and the point-to-distribution refinement on a real scan.
  */
-#include "core/refinement.h"
-#include "core/source_samples.h"
-#include "core/voxel_grid.h"
+#include "refine/refinement.h"
+#include "features/source_samples.h"
+#include "features/voxel_grid.h"
 
 #include <pcl_mi/io.h>
 #include <pcl_mi/kitti.h>

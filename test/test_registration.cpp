@@ -521,7 +521,7 @@ TEST(Registration, RefinementSharpensTheMutualInformationOptimum)
   for (const bool refine : {false, true}) {
     pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
     pcl_mi::Parameters p;
-    p.refinement = refine ? pcl_mi::Refinement::PointToDistribution : pcl_mi::Refinement::None;
+    p.refinement.method = refine ? pcl_mi::Refinement::PointToDistribution : pcl_mi::Refinement::None;
     ASSERT_TRUE(reg.setParameters(p));
     reg.setInputSource(source);
     reg.setInputTarget(target);

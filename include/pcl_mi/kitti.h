@@ -4,7 +4,12 @@
  */
 #pragma once
 
+#include <pcl_mi/types.h>
+
 #include <Eigen/Core>
+
+#include <cstddef>
+#include <functional>
 
 #include <string>
 #include <vector>
@@ -38,6 +43,18 @@ relativeVelodyneTransform(const Eigen::Matrix4d& tr,
 /** \brief Path of a frame's scan: ROOT/sequences/SS/velodyne/NNNNNN.bin. */
 std::string
 scanPath(const std::string& root, const std::string& sequence, int frame);
+
+/** \brief Reads a KITTI Velodyne scan (float32 x, y, z, reflectance per point) in chunks,
+ * with no copy of the file in memory: \a begin(n) once with the point count, then
+ * \a point(i, xyzr) for each point. Returns an empty string, or why it cannot. */
+std::string
+readScan(const std::string& path,
+         const std::function<void(std::size_t)>& begin,
+         const std::function<void(std::size_t, const float*)>& point);
+
+/** \brief The scan's points (x, y, z) at \a path (see readScan()). */
+std::string
+loadScan(const std::string& path, PointList& points);
 
 } // namespace kitti
 } // namespace pcl_mi

@@ -132,20 +132,26 @@ public:
 
   /** \brief Voxel edge length R_v (> 0, default 1 m). */
   void
-  setResolution(double resolution);
+  setResolution(double resolution)
+  {
+    setField("setResolution", &pcl_mi::Parameters::grid, &pcl_mi::GridParameters::resolution, resolution);
+  }
   double
   getResolution() const
   {
-    return core_.parameters().resolution;
+    return core_.parameters().grid.resolution;
   }
 
   /** \brief Voxel feature (default pcl_mi::Feature::VarianceZ). */
   void
-  setFeature(pcl_mi::Feature feature);
+  setFeature(pcl_mi::Feature feature)
+  {
+    setField("setFeature", &pcl_mi::Parameters::grid, &pcl_mi::GridParameters::feature, feature);
+  }
   pcl_mi::Feature
   getFeature() const
   {
-    return core_.parameters().feature;
+    return core_.parameters().grid.feature;
   }
 
   /** \brief Histogram binning of \a feature: \a num_bins (1..255) equal bins over
@@ -161,79 +167,100 @@ public:
   pcl_mi::FeatureBinning
   getFeatureBinning(pcl_mi::Feature feature) const
   {
-    return feature == pcl_mi::Feature::VarianceZ ? core_.parameters().variance_z_binning
-                                                 : core_.parameters().point_count_binning;
+    return feature == pcl_mi::Feature::VarianceZ ? core_.parameters().grid.variance_z_binning
+                                                 : core_.parameters().grid.point_count_binning;
   }
 
   /** \brief Initial simplex step per parameter [tx, ty, tz (m), roll, pitch, yaw (rad)]
    * (default [8, 8, 1, 0.1, 0.1, 0.8]). A zero step keeps that parameter at the guess. */
   void
-  setSimplexSteps(const Vector6d& steps);
+  setSimplexSteps(const Vector6d& steps)
+  {
+    setField("setSimplexSteps", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::simplex_steps, steps);
+  }
   Vector6d
   getSimplexSteps() const
   {
-    return core_.parameters().simplex_steps;
+    return core_.parameters().search.simplex_steps;
   }
 
   /** \brief Also search from the mirrored simplex (all steps negated), keeping the better
    * result (default true; the paper's search is false). */
   void
-  setSymmetricStart(bool symmetric);
+  setSymmetricStart(bool symmetric)
+  {
+    setField("setSymmetricStart", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::symmetric_start, symmetric);
+  }
   bool
   getSymmetricStart() const
   {
-    return core_.parameters().symmetric_start;
+    return core_.parameters().search.symmetric_start;
   }
 
   /** \brief Restarts around the best vertex on the finest searched level (default 0: the
    * refinement sharpens the optimum instead; without a refinement 2 lift the search out of
    * the grid's small local optima). */
   void
-  setNumberOfRestarts(int restarts);
+  setNumberOfRestarts(int restarts)
+  {
+    setField("setNumberOfRestarts", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::restarts, restarts);
+  }
   int
   getNumberOfRestarts() const
   {
-    return core_.parameters().restarts;
+    return core_.parameters().search.restarts;
   }
 
   /** \brief Headings (yaw) the coarsest level starts from, spread evenly over 360 degrees
    * from the guess's (default 1). 4-8 where the heading of the guess may be off by more
-   * than about 60 degrees (pcl_mi::Parameters::heading_starts). */
+   * than about 60 degrees (pcl_mi::SearchParameters::heading_starts). */
   void
-  setNumberOfHeadingStarts(int headings);
+  setNumberOfHeadingStarts(int headings)
+  {
+    setField("setNumberOfHeadingStarts", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::heading_starts, headings);
+  }
   int
   getNumberOfHeadingStarts() const
   {
-    return core_.parameters().heading_starts;
+    return core_.parameters().search.heading_starts;
   }
 
   /** \brief Further starts of the coarsest level around the guess, half the x/y steps away
    * (default 0; narrow fields of view get setNarrowViewPositionStarts()'s without asking)
-   * (pcl_mi::Parameters::position_starts). */
+   * (pcl_mi::SearchParameters::position_starts). */
   void
-  setNumberOfPositionStarts(int positions);
+  setNumberOfPositionStarts(int positions)
+  {
+    setField("setNumberOfPositionStarts", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::position_starts, positions);
+  }
   int
   getNumberOfPositionStarts() const
   {
-    return core_.parameters().position_starts;
+    return core_.parameters().search.position_starts;
   }
 
   /** \brief Position starts used instead of setNumberOfPositionStarts()'s, when more,
    * where either cloud covers less than 180 degrees of azimuth about its own origin: a
-   * narrow field of view (default 8; 0 = never; pcl_mi::Parameters::
+   * narrow field of view (default 8; 0 = never; pcl_mi::SearchParameters::
    * narrow_view_position_starts). getLastResult().position_starts says what was used. */
   void
-  setNarrowViewPositionStarts(int positions);
+  setNarrowViewPositionStarts(int positions)
+  {
+    setField("setNarrowViewPositionStarts", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::narrow_view_position_starts, positions);
+  }
   int
   getNarrowViewPositionStarts() const
   {
-    return core_.parameters().narrow_view_position_starts;
+    return core_.parameters().search.narrow_view_position_starts;
   }
 
   /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of
    * the best one in each translation parameter; 0 (default) = 0.005 * resolution. */
   void
-  setTranslationTolerance(double tolerance);
+  setTranslationTolerance(double tolerance)
+  {
+    setField("setTranslationTolerance", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::translation_tolerance, tolerance);
+  }
   /** \brief The translation tolerance in use (0.005 m at the default 1 m resolution). */
   double
   getTranslationTolerance() const
@@ -244,11 +271,14 @@ public:
   /** \brief Convergence: every simplex vertex within \a tolerance radians of the best one in
    * each rotation parameter (default 0.0005 rad). */
   void
-  setRotationTolerance(double tolerance);
+  setRotationTolerance(double tolerance)
+  {
+    setField("setRotationTolerance", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::rotation_tolerance, tolerance);
+  }
   double
   getRotationTolerance() const
   {
-    return core_.parameters().rotation_tolerance;
+    return core_.parameters().search.rotation_tolerance;
   }
 
   /** \brief Where the cost evaluations run: Backend::Cpu (default), Backend::OpenCL (an
@@ -256,21 +286,27 @@ public:
    * accelerator when every point enters each evaluation, where it is faster; otherwise the
    * CPU; the CPU with a PCL_WARN if no OpenCL device is usable). All give the same result. */
   void
-  setBackend(pcl_mi::Backend backend);
+  setBackend(pcl_mi::Backend backend)
+  {
+    setField("setBackend", &pcl_mi::Parameters::backend, &pcl_mi::BackendParameters::type, backend);
+  }
   pcl_mi::Backend
   getBackend() const
   {
-    return core_.parameters().backend;
+    return core_.parameters().backend.type;
   }
 
   /** \brief Time every OpenCL command with device events for getBackendProfile()
-   * (pcl_mi::Parameters::profile_device; default false: it slows evaluations down). */
+   * (pcl_mi::BackendParameters::profile_device; default false: it slows evaluations down). */
   void
-  setDeviceProfiling(bool enabled);
+  setDeviceProfiling(bool enabled)
+  {
+    setField("setDeviceProfiling", &pcl_mi::Parameters::backend, &pcl_mi::BackendParameters::profile_device, enabled);
+  }
   bool
   getDeviceProfiling() const
   {
-    return core_.parameters().profile_device;
+    return core_.parameters().backend.profile_device;
   }
 
   /** \brief Per-stage time of the backend since the target was set (see
@@ -282,19 +318,25 @@ public:
     return core_.backendProfile();
   }
 
-  /** \brief Refinement after the MI search (pcl_mi::Parameters::refinement). */
+  /** \brief Refinement after the MI search (pcl_mi::RefinementParameters::method). */
   void
-  setRefinement(pcl_mi::Refinement refinement);
+  setRefinement(pcl_mi::Refinement refinement)
+  {
+    setField("setRefinement", &pcl_mi::Parameters::refinement, &pcl_mi::RefinementParameters::method, refinement);
+  }
   pcl_mi::Refinement
   getRefinement() const
   {
-    return core_.parameters().refinement;
+    return core_.parameters().refinement.method;
   }
 
   /** \brief Cube edge of the refinement's target distributions (the clouds' units);
    * 0 (default) = 0.7 * resolution. */
   void
-  setRefinementResolution(double resolution);
+  setRefinementResolution(double resolution)
+  {
+    setField("setRefinementResolution", &pcl_mi::Parameters::refinement, &pcl_mi::RefinementParameters::resolution, resolution);
+  }
   /** \brief The refinement cube edge in use (0.7 m at the default 1 m resolution). */
   double
   getRefinementResolution() const
@@ -303,12 +345,18 @@ public:
   }
 
   /** \brief Replaces all parameters at once; refused (PCL_ERROR, old values kept) if any is
-   * invalid. setMaximumIterations() is taken from \a parameters.max_iterations. */
+   * invalid. The iteration cap stays setMaximumIterations()'s. */
   bool
-  setParameters(const pcl_mi::Parameters& parameters);
-  /** \brief All parameters, max_iterations included. */
-  pcl_mi::Parameters
-  getParameters() const;
+  setParameters(const pcl_mi::Parameters& parameters)
+  {
+    return applyParameters(parameters, "setParameters");
+  }
+  /** \brief All parameters (the iteration cap is getMaximumIterations()'s). */
+  const pcl_mi::Parameters&
+  getParameters() const
+  {
+    return core_.parameters();
+  }
 
   /** \brief Nelder-Mead iterations of the last align() (as NDT's getFinalNumIteration()). */
   int
@@ -361,9 +409,10 @@ public:
   double
   evaluate(const Matrix4& pose);
 
-  /** \brief The non-templated engine (parameters, joint histograms, diagnostics). */
-  pcl_mi::RegistrationCore&
-  core()
+  /** \brief The non-templated engine, read-only: backend name and warning, dropped
+   * points (its parameters change through this class's setters only). */
+  const pcl_mi::RegistrationCore&
+  core() const
   {
     return core_;
   }
@@ -395,13 +444,16 @@ private:
   bool
   applyParameters(const pcl_mi::Parameters& parameters, const char* setter);
 
-  /** Applies \a update to a copy of the parameters and then applyParameters(). */
-  template <typename Update>
+  /** Sets one field of one parameter group through applyParameters(). */
+  template <typename Group, typename Field, typename Value>
   void
-  updateParameters(const char* setter, Update&& update)
+  setField(const char* setter,
+           Group pcl_mi::Parameters::*group,
+           Field Group::*field,
+           const Value& value)
   {
-    pcl_mi::Parameters p = getParameters();
-    update(p);
+    pcl_mi::Parameters p = core_.parameters();
+    (p.*group).*field = value;
     applyParameters(p, setter);
   }
 

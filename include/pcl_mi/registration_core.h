@@ -6,44 +6,30 @@
 
 #include <pcl_mi/parameters.h>
 
+#include <pcl_mi/parameters.h>
+#include <pcl_mi/types.h>
+
 #include <Eigen/Core>
-#include <cstdint>
+
 #include <memory>
 #include <string>
 #include <vector>
 
 namespace pcl_mi {
 
-/** \brief Point coordinates as the core consumes them: plain xyz, no point type. */
-using PointList = std::vector<Eigen::Vector3f>;
-
-/** \brief Joint histogram of target (X) and source (Y) voxel feature bins over the overlap.
- *
- * Row-major: count(x, y) = counts[x * num_bins + y]; bin 0 is "unoccupied". */
-struct JointHistogram {
-  int num_bins = 0;                   ///< bins per axis (occupied bins + 1)
-  std::vector<std::uint32_t> counts;  ///< num_bins * num_bins integer counts
-  std::uint64_t overlap_voxels = 0;   ///< voxels in the overlap region (sum of counts)
-
-  std::uint32_t
-  at(int x, int y) const
-  {
-    return counts[static_cast<std::size_t>(x) * num_bins + y];
-  }
-};
-
-/** \brief Non-templated engine behind pcl::MutualInformationRegistration.
- *
- * Owns the point data (in a local frame centred on each cloud, so world offsets such as UTM
- * coordinates cost no precision), the target's voxel features, the scoring backend and the
- * Nelder-Mead search. It knows nothing of PCL point types. Not thread-safe: use one
- * instance per thread.
- */
 /** \brief True when this build has the OpenCL backend and an OpenCL device (with double
  * support) is available; otherwise false and, in \a reason, why. */
 bool
 openClAvailable(std::string* reason = nullptr);
 
+
+/** \brief Non-templated engine behind pcl::MutualInformationRegistration.
+ *
+ * Owns the point data (in a local frame centred on each cloud, so world offsets such as UTM
+ * coordinates cost no precision), the target's voxel features and the scoring backends,
+ * and runs the coarse-to-fine search and the refinement. It knows nothing of PCL point types. Not thread-safe: use one
+ * instance per thread.
+ */
 class RegistrationCore {
 public:
   RegistrationCore();
@@ -74,9 +60,10 @@ public:
   void
   setSource(PointList points);
 
-  /** \brief Maximises the mutual information starting from \a guess (source to target). */
+  /** \brief Maximises the mutual information starting from \a guess (source to target),
+   * with at most \a max_iterations Nelder-Mead iterations over every start and level. */
   AlignmentResult
-  align(const Eigen::Matrix4d& guess);
+  align(const Eigen::Matrix4d& guess, int max_iterations = kDefaultMaxIterations);
 
   /** \brief Mutual information (nats) at \a pose (source to target), for cost surfaces and
    * tests. Returns a negative value and sets \a error if the inputs are unusable; returns 0

@@ -3,7 +3,7 @@
  */
 #include "backend/scoring_backend.h"
 
-#include "core/feature_binning.h"
+#include "features/feature_binning.h"
 
 #include <algorithm>
 #include <chrono>
@@ -106,11 +106,12 @@ private:
     touched_.resize(samples.size());
     std::size_t touched = 0;
     for (const auto& s : samples) {
-      // Spelled out in the OpenCL kernel's order (kernels/joint_histogram.cl).
+      // The OpenCL kernels' arithmetic (kernels/voxel_math.h).
       const Eigen::Vector3f& p = s.position;
-      const Eigen::Vector3f f(((r(0, 0) * p.x() + r(0, 1) * p.y()) + r(0, 2) * p.z()) + t.x(),
-                              ((r(1, 0) * p.x() + r(1, 1) * p.y()) + r(1, 2) * p.z()) + t.y(),
-                              ((r(2, 0) * p.x() + r(2, 1) * p.y()) + r(2, 2) * p.z()) + t.z());
+      const Eigen::Vector3f f(
+          voxel::pcl_mi_moved(r(0, 0), r(0, 1), r(0, 2), t.x(), p.x(), p.y(), p.z()),
+          voxel::pcl_mi_moved(r(1, 0), r(1, 1), r(1, 2), t.y(), p.x(), p.y(), p.z()),
+          voxel::pcl_mi_moved(r(2, 0), r(2, 1), r(2, 2), t.z(), p.x(), p.y(), p.z()));
       min = min.cwiseMin(f);
       max = max.cwiseMax(f);
       // Samples outside the grid go to a spare cell past its end instead of branching
@@ -130,12 +131,8 @@ private:
         m.add(q);
         continue;
       }
-      const float* c = s.covariance;
-      const float variance_z =
-          rz.x() * (rz.x() * c[0] + 2.0f * (rz.y() * c[1] + rz.z() * c[2])) +
-          rz.y() * (rz.y() * c[3] + 2.0f * rz.z() * c[4]) + rz.z() * rz.z() * c[5];
       m.add(q, s.count,
-            static_cast<std::uint32_t>(std::max(0.0f, variance_z) * variance_scale + 0.5f));
+            voxel::pcl_mi_variance_levels(rz.x(), rz.y(), rz.z(), s.covariance, variance_scale));
     }
 
     touched_.resize(touched);

@@ -8,7 +8,7 @@
 #define CL_TARGET_OPENCL_VERSION 120
 #include "backend/opencl_backend.h"
 
-#include "core/feature_binning.h"
+#include "features/feature_binning.h"
 
 #include <CL/cl.h>
 
@@ -113,41 +113,27 @@ kernelSource()
   // Developers may edit the kernels without rebuilding: PCL_MI_KERNEL_DIR overrides the
   // copy embedded at build time.
   if (const char* dir = std::getenv("PCL_MI_KERNEL_DIR")) {
-    const std::string path = std::string(dir) + "/joint_histogram.cl";
-    std::ifstream in(path);
-    if (!in)
-      throw std::runtime_error("OpenCL: PCL_MI_KERNEL_DIR is set but " + path +
-                               " cannot be read");
     std::stringstream text;
-    text << in.rdbuf();
+    for (const char* file : {"voxel_math.h", "joint_histogram.cl"}) { // as embedded
+      const std::string path = std::string(dir) + "/" + file;
+      std::ifstream in(path);
+      if (!in)
+        throw std::runtime_error("OpenCL: PCL_MI_KERNEL_DIR is set but " + path +
+                                 " cannot be read");
+      text << in.rdbuf() << '\n';
+    }
     return text.str();
   }
   return kJointHistogramKernelSource;
 }
 
-// Host mirrors of the kernels' structs (kernels/joint_histogram.cl).
-struct DeviceSample {
-  float position[3];
-  std::uint32_t count;
-  float covariance[6];
-  float pad[2];
-};
-static_assert(sizeof(DeviceSample) == 48, "must match Sample in joint_histogram.cl");
-
-struct DeviceOccupiedVoxel {
-  std::uint32_t cell;
-  std::int32_t ix, iy, iz;
-  std::uint32_t bin;
-};
-static_assert(sizeof(DeviceOccupiedVoxel) == 20, "must match OccupiedVoxel");
-
-struct DevicePose {
-  float r[9];
-  float t[3];
-  float rz[3];
-  float variance_scale;
-};
-static_assert(sizeof(DevicePose) == 64, "must match Pose");
+// The device structs are kernels/voxel_math.h's, which host and kernels share.
+using DeviceSample = voxel::pcl_mi_sample;
+using DeviceOccupiedVoxel = voxel::pcl_mi_occupied_voxel;
+using DevicePose = voxel::pcl_mi_grid_pose;
+static_assert(sizeof(DeviceSample) == 48 && sizeof(DeviceOccupiedVoxel) == 20 &&
+                  sizeof(DevicePose) == 64,
+              "the OpenCL C compiler lays these structs out without padding");
 
 constexpr std::size_t kGroupSize = 128;
 constexpr std::size_t kReduceGroupSize = 128;
@@ -466,9 +452,11 @@ public:
     for (std::size_t i = 0; i < n; ++i) {
       const core::SourceSample& s = source_->samples[i];
       DeviceSample& d = samples[i];
-      std::memcpy(d.position, s.position.data(), sizeof(d.position));
+      d.px = s.position.x();
+      d.py = s.position.y();
+      d.pz = s.position.z();
       d.count = s.count;
-      std::memcpy(d.covariance, s.covariance, sizeof(d.covariance));
+      std::memcpy(d.c, s.covariance, sizeof(d.c));
       d.pad[0] = d.pad[1] = 0.0f;
     }
     auto start = Clock::now();

@@ -4,10 +4,10 @@
  */
 #pragma once
 
-#include "core/source_samples.h"
-#include "core/voxel_grid.h"
+#include "features/source_samples.h"
+#include "features/voxel_grid.h"
 
-#include <pcl_mi/registration_core.h>
+#include <pcl_mi/types.h>
 
 #include <Eigen/Core>
 

@@ -2,6 +2,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_mi/io.h>
+#include <pcl_mi/kitti.h>
 
 #include "io/file_checks.h"
 #include "io/readers.h"
@@ -42,42 +43,20 @@ lowerExtension(const std::string& path)
 std::string
 loadKittiBin(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
 {
-  std::uint64_t size = 0;
-  const std::string not_regular = detail::checkRegularFile(path, &size);
-  if (!not_regular.empty())
-    return not_regular;
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    return "cannot open '" + path + "'";
-  constexpr std::uint64_t kPointBytes = 4 * sizeof(float);
-  if (size == 0 || size % kPointBytes != 0) {
-    std::ostringstream s;
-    s << "'" << path << "' is not a KITTI .bin scan: " << size
-      << " bytes is not a positive multiple of 16 (float32 x, y, z, reflectance)";
-    return s.str();
-  }
-  const std::uint64_t n = size / kPointBytes;
-  cloud.clear();
-  cloud.resize(static_cast<std::size_t>(n));
-  // Read in chunks straight into the cloud: no second copy of a large scan.
-  constexpr std::size_t kChunkPoints = 1 << 16;
-  std::vector<float> chunk(4 * kChunkPoints);
   bool dense = true;
-  for (std::size_t begin = 0; begin < n; begin += kChunkPoints) {
-    const std::size_t count = std::min<std::size_t>(kChunkPoints, n - begin);
-    if (!in.read(reinterpret_cast<char*>(chunk.data()),
-                 static_cast<std::streamsize>(count * kPointBytes)))
-      return "cannot read '" + path + "'";
-    for (std::size_t i = 0; i < count; ++i) {
-      auto& p = cloud[begin + i];
-      p.x = chunk[4 * i];
-      p.y = chunk[4 * i + 1];
-      p.z = chunk[4 * i + 2];
-      p.intensity = chunk[4 * i + 3];
-      dense = dense && std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-    }
-  }
-  cloud.width = static_cast<std::uint32_t>(n);
+  const std::string error = kitti::readScan(
+      path, [&](std::size_t n) { cloud.clear(); cloud.resize(n); },
+      [&](std::size_t i, const float* xyzr) {
+        auto& p = cloud[i];
+        p.x = xyzr[0];
+        p.y = xyzr[1];
+        p.z = xyzr[2];
+        p.intensity = xyzr[3];
+        dense = dense && std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+      });
+  if (!error.empty())
+    return error;
+  cloud.width = static_cast<std::uint32_t>(cloud.size());
   cloud.height = 1;
   cloud.is_dense = dense;
   return {};

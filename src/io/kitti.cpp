@@ -7,9 +7,12 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 namespace pcl_mi {
 namespace kitti {
@@ -97,6 +100,48 @@ scanPath(const std::string& root, const std::string& sequence, int frame)
   char name[32];
   std::snprintf(name, sizeof(name), "%06d.bin", frame);
   return root + "/sequences/" + sequence + "/velodyne/" + name;
+}
+
+std::string
+readScan(const std::string& path,
+         const std::function<void(std::size_t)>& begin,
+         const std::function<void(std::size_t, const float*)>& point)
+{
+  std::uint64_t size = 0;
+  const std::string not_regular = io::detail::checkRegularFile(path, &size);
+  if (!not_regular.empty())
+    return not_regular;
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    return "cannot open '" + path + "'";
+  constexpr std::uint64_t kPointBytes = 4 * sizeof(float);
+  if (size == 0 || size % kPointBytes != 0) {
+    std::ostringstream s;
+    s << "'" << path << "' is not a KITTI .bin scan: " << size
+      << " bytes is not a positive multiple of 16 (float32 x, y, z, reflectance)";
+    return s.str();
+  }
+  const std::uint64_t n = size / kPointBytes;
+  begin(static_cast<std::size_t>(n));
+  constexpr std::size_t kChunkPoints = 1 << 16;
+  std::vector<float> chunk(4 * kChunkPoints);
+  for (std::size_t first = 0; first < n; first += kChunkPoints) {
+    const std::size_t count = std::min<std::size_t>(kChunkPoints, n - first);
+    if (!in.read(reinterpret_cast<char*>(chunk.data()),
+                 static_cast<std::streamsize>(count * kPointBytes)))
+      return "cannot read '" + path + "'";
+    for (std::size_t i = 0; i < count; ++i)
+      point(first + i, &chunk[4 * i]);
+  }
+  return {};
+}
+
+std::string
+loadScan(const std::string& path, PointList& points)
+{
+  return readScan(
+      path, [&](std::size_t n) { points.assign(n, Eigen::Vector3f::Zero()); },
+      [&](std::size_t i, const float* xyzr) { points[i] = Eigen::Vector3f(xyzr[0], xyzr[1], xyzr[2]); });
 }
 
 } // namespace kitti

@@ -125,7 +125,7 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::
   reg_name_ = "MutualInformationRegistration";
   // align() would otherwise build a k-d tree over every new target that MI never uses.
   tree_.reset(new pcl_mi::detail::LazyKdTree<PointTarget>);
-  max_iterations_ = core_.parameters().max_iterations;
+  max_iterations_ = pcl_mi::kDefaultMaxIterations;
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -362,155 +362,14 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::applyParameters
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setResolution(
-    double resolution)
-{
-  updateParameters("setResolution", [&](pcl_mi::Parameters& p) { p.resolution = resolution; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeature(
-    pcl_mi::Feature feature)
-{
-  updateParameters("setFeature", [&](pcl_mi::Parameters& p) { p.feature = feature; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeatureBinning(
     pcl_mi::Feature feature, int num_bins, double max_value, double range_quantile)
 {
-  updateParameters("setFeatureBinning", [&](pcl_mi::Parameters& p) {
-    pcl_mi::FeatureBinning& b = feature == pcl_mi::Feature::VarianceZ ? p.variance_z_binning
-                                                                      : p.point_count_binning;
-    b.num_bins = num_bins;
-    b.max_value = max_value;
-    b.range_quantile = range_quantile;
-  });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setSimplexSteps(
-    const Vector6d& steps)
-{
-  updateParameters("setSimplexSteps", [&](pcl_mi::Parameters& p) { p.simplex_steps = steps; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setSymmetricStart(
-    bool symmetric)
-{
-  updateParameters("setSymmetricStart", [&](pcl_mi::Parameters& p) { p.symmetric_start = symmetric; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfRestarts(
-    int restarts)
-{
-  updateParameters("setNumberOfRestarts", [&](pcl_mi::Parameters& p) { p.restarts = restarts; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfHeadingStarts(
-    int headings)
-{
-  updateParameters("setNumberOfHeadingStarts",
-                   [&](pcl_mi::Parameters& p) { p.heading_starts = headings; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNumberOfPositionStarts(
-    int positions)
-{
-  updateParameters("setNumberOfPositionStarts",
-                   [&](pcl_mi::Parameters& p) { p.position_starts = positions; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setNarrowViewPositionStarts(
-    int positions)
-{
-  updateParameters("setNarrowViewPositionStarts",
-                   [&](pcl_mi::Parameters& p) { p.narrow_view_position_starts = positions; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setBackend(
-    pcl_mi::Backend backend)
-{
-  updateParameters("setBackend", [&](pcl_mi::Parameters& p) { p.backend = backend; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setDeviceProfiling(
-    bool enabled)
-{
-  updateParameters("setDeviceProfiling",
-                   [&](pcl_mi::Parameters& p) { p.profile_device = enabled; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRefinement(
-    pcl_mi::Refinement refinement)
-{
-  updateParameters("setRefinement", [&](pcl_mi::Parameters& p) { p.refinement = refinement; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRefinementResolution(
-    double resolution)
-{
-  updateParameters("setRefinementResolution",
-                   [&](pcl_mi::Parameters& p) { p.refinement_resolution = resolution; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setTranslationTolerance(
-    double tolerance)
-{
-  updateParameters("setTranslationTolerance",
-                   [&](pcl_mi::Parameters& p) { p.translation_tolerance = tolerance; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-void
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setRotationTolerance(
-    double tolerance)
-{
-  updateParameters("setRotationTolerance", [&](pcl_mi::Parameters& p) { p.rotation_tolerance = tolerance; });
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-bool
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::setParameters(
-    const pcl_mi::Parameters& parameters)
-{
-  if (!applyParameters(parameters, "setParameters"))
-    return false;
-  max_iterations_ = parameters.max_iterations;
-  return true;
-}
-
-template <typename PointSource, typename PointTarget, typename Scalar>
-pcl_mi::Parameters
-MutualInformationRegistration<PointSource, PointTarget, Scalar>::getParameters() const
-{
-  pcl_mi::Parameters p = core_.parameters();
-  // The base class's setMaximumIterations() writes max_iterations_ directly.
-  p.max_iterations = max_iterations_;
-  return p;
+  const pcl_mi::FeatureBinning binning{num_bins, max_value, range_quantile};
+  setField("setFeatureBinning", &pcl_mi::Parameters::grid,
+           feature == pcl_mi::Feature::VarianceZ ? &pcl_mi::GridParameters::variance_z_binning
+                                                 : &pcl_mi::GridParameters::point_count_binning,
+           binning);
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -544,21 +403,17 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
   final_transformation_ = guess;
 
   // setMaximumIterations() is the base class's and cannot refuse a value: checked here.
-  const pcl_mi::Parameters parameters = getParameters();
-  const std::string invalid = parameters.validate();
-  const std::string source_error = invalid.empty() ? updateSource() : std::string();
-  if (!invalid.empty()) {
-    result_.error = "invalid parameters: " + invalid;
-    if (max_iterations_ < 1)
-      result_.error += " (setMaximumIterations)";
+  const std::string bad_cap = pcl_mi::maxIterationsError(max_iterations_);
+  const std::string source_error = bad_cap.empty() ? updateSource() : std::string();
+  if (!bad_cap.empty()) {
+    result_.error = "invalid parameters: " + bad_cap + " (setMaximumIterations)";
   }
   else if (!source_error.empty()) {
     result_.error = source_error;
   }
   else {
-    core_.setParameters(parameters);
     try {
-      result_ = core_.align(guess.template cast<double>());
+      result_ = core_.align(guess.template cast<double>(), max_iterations_);
     }
     catch (const std::exception& e) {
       // Only resource exhaustion can throw here (std::bad_alloc); it must not escape.

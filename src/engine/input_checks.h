@@ -6,7 +6,7 @@
  */
 #pragma once
 
-#include "core/voxel_grid.h"
+#include "features/voxel_grid.h"
 
 #include <Eigen/Core>
 

@@ -1,7 +1,7 @@
 /*
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "core/mutual_information.h"
+#include "features/mutual_information.h"
 
 #include <algorithm>
 #include <cmath>

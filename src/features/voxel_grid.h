@@ -5,9 +5,9 @@
  */
 #pragma once
 
-#include "core/feature_binning.h"
+#include "features/feature_binning.h"
 
-#include <pcl_mi/registration_core.h>
+#include <pcl_mi/types.h>
 
 #include <Eigen/Core>
 

@@ -4,7 +4,7 @@
  */
 #pragma once
 
-#include <pcl_mi/registration_core.h>
+#include <pcl_mi/types.h>
 
 #include <cstdint>
 #include <vector>

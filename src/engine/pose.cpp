@@ -1,7 +1,7 @@
 /*
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "core/pose.h"
+#include "engine/pose.h"
 
 #include <Eigen/Geometry>
 

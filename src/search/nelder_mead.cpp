@@ -1,7 +1,7 @@
 /*
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "core/nelder_mead.h"
+#include "search/nelder_mead.h"
 
 #include <algorithm>
 #include <numeric>

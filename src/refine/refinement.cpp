@@ -1,9 +1,9 @@
 /*
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "core/refinement.h"
+#include "refine/refinement.h"
 
-#include "core/parallel.h"
+#include "util/parallel.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>

@@ -4,9 +4,9 @@
  */
 #pragma once
 
-#include "core/source_samples.h"
+#include "features/source_samples.h"
 
-#include <pcl_mi/registration_core.h>
+#include <pcl_mi/types.h>
 
 #include <Eigen/Core>
 

@@ -1,7 +1,7 @@
 /*
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "core/input_checks.h"
+#include "engine/input_checks.h"
 
 #include <Eigen/Eigenvalues>
 

@@ -1,7 +1,7 @@
 /*
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "core/source_samples.h"
+#include "features/source_samples.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,11 +1,13 @@
 /*
- * pcl_mi: per-voxel feature values and their histogram bins. Every backend uses these
- * functions (or mirrors them exactly), so that all backends bin identically.
+ * pcl_mi: per-voxel feature values and their histogram bins, as C++ over the arithmetic
+ * that kernels/voxel_math.h holds once for both backends.
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #pragma once
 
-#include <pcl_mi/parameters.h>
+#include "kernels/voxel_math.h"
+
+#include <pcl_mi/types.h>
 
 #include <algorithm>
 #include <cmath>
@@ -16,7 +18,7 @@ namespace core {
 
 /** Levels a point's height inside its voxel is quantised to. Integer moments make the
  * voxel features independent of summation order (threads, devices). */
-constexpr int kHeightLevels = 256;
+constexpr int kHeightLevels = PCL_MI_HEIGHT_LEVELS;
 
 /** \brief Integer moments of the points in one voxel: count and the sums of the quantised
  * in-voxel heights q in [0, kHeightLevels) and of q^2. */
@@ -51,8 +53,7 @@ struct VoxelMoments {
 inline int
 quantiseHeight(float z_cells, int iz)
 {
-  const int q = static_cast<int>((z_cells - static_cast<float>(iz)) * kHeightLevels);
-  return std::min(std::max(q, 0), kHeightLevels - 1);
+  return voxel::pcl_mi_quantise_height(z_cells, iz);
 }
 
 /** \brief Feature value of an occupied voxel (see pcl_mi::FeatureBinning for units). */
@@ -61,24 +62,16 @@ featureValue(Feature feature, const VoxelMoments& m)
 {
   if (feature == Feature::PointCount)
     return static_cast<double>(m.count);
-  // var(z) / R_v^2 = (n * S2 - S1^2) / (n^2 * L^2), exact in integers up to large n.
-  const double n = static_cast<double>(m.count);
-  const double s1 = static_cast<double>(m.sum_q);
-  const double s2 = static_cast<double>(m.sum_q2);
-  const double numerator = std::max(0.0, n * s2 - s1 * s1);
-  return numerator / (n * n * static_cast<double>(kHeightLevels) * kHeightLevels);
+  return voxel::pcl_mi_variance_z_value(static_cast<double>(m.count),
+                                        static_cast<double>(m.sum_q),
+                                        static_cast<double>(m.sum_q2));
 }
 
 /** \brief Histogram bin of a feature value: 1 + min(B - 1, floor(B * v / max)). */
 inline int
 binOfValue(const FeatureBinning& binning, double value)
 {
-  const double scaled = binning.num_bins * value / binning.max_value;
-  if (!(scaled > 0.0))
-    return 1;
-  if (scaled >= binning.num_bins)
-    return binning.num_bins;
-  return 1 + static_cast<int>(scaled);
+  return voxel::pcl_mi_bin_of_value(binning.num_bins, binning.max_value, value);
 }
 
 /** \brief Histogram bin of a voxel: 0 when unoccupied, else the bin of its feature. */

@@ -1,7 +1,7 @@
 /*
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "core/voxel_grid.h"
+#include "features/voxel_grid.h"
 
 #include <algorithm>
 #include <array>

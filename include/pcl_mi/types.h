@@ -1,0 +1,113 @@
+/*
+ * pcl_mi: 3D scan alignment by maximising the mutual information of voxel features.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+// The bottom floor: the value types every layer shares (engine, search, features,
+// backends, adapter). It includes nothing of pcl_mi.
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace pcl_mi {
+
+/** \brief Point coordinates as the core consumes them: plain xyz, no point type. */
+using PointList = std::vector<Eigen::Vector3f>;
+
+/** \brief Joint histogram of target (X) and source (Y) voxel feature bins over the overlap.
+ *
+ * Row-major: count(x, y) = counts[x * num_bins + y]; bin 0 is "unoccupied". */
+struct JointHistogram {
+  int num_bins = 0;                   ///< bins per axis (occupied bins + 1)
+  std::vector<std::uint32_t> counts;  ///< num_bins * num_bins integer counts
+  std::uint64_t overlap_voxels = 0;   ///< voxels in the overlap region (sum of counts)
+
+  std::uint32_t
+  at(int x, int y) const
+  {
+    return counts[static_cast<std::size_t>(x) * num_bins + y];
+  }
+};
+
+/** \brief Per-voxel feature whose distribution the mutual information is computed over. */
+enum class Feature {
+  VarianceZ,  ///< variance of the points' z in the voxel (the paper's MI-VARZ)
+  PointCount  ///< number of points in the voxel (the paper's MI-N)
+};
+
+/** \brief Human-readable name of a feature ("VarianceZ", "PointCount"). */
+const char*
+featureName(Feature feature);
+
+/** \brief Prints the feature's name (for logs and test output). */
+inline std::ostream&
+operator<<(std::ostream& os, Feature feature)
+{
+  return os << featureName(feature);
+}
+
+/** \brief How the value of an occupied voxel maps to a histogram bin.
+ *
+ * Bin 0 is reserved for unoccupied voxels (the paper's "no feature" value). An occupied
+ * voxel with feature value v falls into
+ *
+ *     bin = 1 + min(num_bins - 1, floor(num_bins * v / max_value))
+ *
+ * so bins 1..num_bins split [0, max_value) into equal intervals and values >= max_value
+ * land in the last bin. The histograms therefore have num_bins + 1 bins.
+ *
+ * Feature values: VarianceZ uses var(z) / resolution^2 (dimensionless, in [0, 0.25];
+ * a voxel filled uniformly top to bottom, such as a wall, gives 1/12), so the binning
+ * does not have to change with the resolution. PointCount uses the plain point count.
+ */
+struct FeatureBinning {
+  int num_bins = 0;       ///< number of bins for occupied voxels (>= 1)
+  double max_value = 0.0; ///< upper end of the binned range (> 0)
+  /** When > 0, each target grid takes max_value from its own occupied voxels instead: the
+   * range_quantile quantile of their feature values (max_value stays the fallback when
+   * that quantile is 0). Source voxels are binned with the same range, so X and Y stay
+   * comparable. 0 = the fixed max_value. In [0, 1]. */
+  double range_quantile = 0.0;
+};
+
+/** \brief Wall-clock time spent in one stage of an alignment. */
+struct StageTiming {
+  std::string name;      ///< e.g. "prepare", "search 4 m", "refinement"
+  int calls = 0;         ///< times the stage ran (cost evaluations for a search stage)
+  double total_ms = 0.0; ///< wall-clock milliseconds, summed over calls
+};
+
+/** \brief Outcome of one alignment. */
+struct AlignmentResult {
+  /** Source-to-target transformation (maps source points into the target frame). */
+  Eigen::Matrix4d transformation = Eigen::Matrix4d::Identity();
+  /** True only when the simplex shrank below the tolerances; false when the iteration
+   * cap was hit or the alignment failed. */
+  bool converged = false;
+  /** Nelder-Mead iterations performed. */
+  int iterations = 0;
+  /** Cost (mutual information) evaluations performed. */
+  int evaluations = 0;
+  /** Gauss-Newton iterations of the refinement (0 when off or discarded). */
+  int refinement_iterations = 0;
+  /** Further starts around the guess the coarsest level used: position_starts, or
+   * narrow_view_position_starts for a narrow field of view (0 when x and y are pinned). */
+  int position_starts = 0;
+  /** Mutual information (nats) at the final transformation. */
+  double mutual_information = 0.0;
+  /** Empty on success, otherwise why the alignment failed. */
+  std::string error;
+  /** What the caller should know that did not stop the alignment (e.g. a large share of a
+   * cloud dropped as far outliers); the PCL adapter prints each with PCL_WARN. */
+  std::vector<std::string> warnings;
+  /** Where the time went, stage by stage in the order they ran. Concurrent searches are
+   * one stage; its time is wall-clock. */
+  std::vector<StageTiming> stages;
+};
+
+} // namespace pcl_mi

@@ -1,0 +1,363 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "engine/prepared_problem.h"
+
+#include "engine/input_checks.h"
+#include "features/mutual_information.h"
+#include "util/parallel.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+#include <tuple>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+/** Fewest points a target cube needs to give the refinement a distribution. */
+constexpr int kRefinementMinimumPoints = 4;
+/** Noise (standard deviation) added to the refinement's target covariances, as a fraction
+ * of the MI resolution: about the range noise of a spinning LiDAR at 1 m voxels. */
+constexpr double kRefinementNoiseFraction = 0.05;
+
+/** Share of a cloud's usable points whose loss as far outliers is worth a warning: a few
+ * stray returns are what the rule is for, a second site is not. */
+constexpr double kOutlierWarningShare = 0.01;
+
+std::string
+describeTooFew(const char* which, const LocalCloud& cloud)
+{
+  std::ostringstream s;
+  s << "the " << which << " has " << cloud.points.size() << " usable points ("
+    << cloud.non_finite << " non-finite, " << cloud.no_return << " at (0, 0, 0) and "
+    << cloud.outliers << " far outliers dropped); at least " << kMinimumPoints
+    << " are needed";
+  return s.str();
+}
+
+/** A warning when far outliers took more than kOutlierWarningShare of a cloud's usable
+ * points; empty otherwise. */
+std::string
+describeOutliers(const char* which, const LocalCloud& cloud, double gap)
+{
+  const std::size_t usable = cloud.points.size() + cloud.outliers;
+  if (static_cast<double>(cloud.outliers) <= kOutlierWarningShare * static_cast<double>(usable))
+    return {};
+  std::ostringstream s;
+  s << "dropped " << cloud.outliers << " of the " << which << "'s " << usable
+    << " usable points as far outliers: an empty gap of " << gap
+    << " (64 voxels) or more parts them from its largest group of points along x, y or z";
+  return s.str();
+}
+
+} // namespace
+
+void
+PreparedProblem::setParameters(const Parameters& p)
+{
+  const Parameters& old = parameters_;
+  // What each group feeds: the grid everything, the sampling the source's samples, the
+  // refinement the target's distributions, the backend the target's backends (and
+  // Backend::Auto's choice depends on the sampling).
+  const bool grid = old.grid != p.grid;
+  const bool sampling = old.sampling != p.sampling;
+  const bool backend = old.backend != p.backend ||
+                       (p.backend.type == Backend::Auto && sampling);
+  target_dirty_ = target_dirty_ || grid || old.refinement != p.refinement || backend;
+  source_dirty_ = source_dirty_ || grid || sampling;
+  parameters_ = p;
+}
+
+void
+PreparedProblem::setTarget(PointList points)
+{
+  target_input_ = std::move(points);
+  has_target_ = true;
+  target_dirty_ = true;
+}
+
+void
+PreparedProblem::setSource(PointList points)
+{
+  source_input_ = std::move(points);
+  has_source_ = true;
+  source_dirty_ = true;
+}
+
+bool
+PreparedProblem::prepare(std::string& error)
+{
+  if (!has_target_) {
+    error = "no target cloud was given";
+    return false;
+  }
+  if (!has_source_) {
+    error = "no source cloud was given";
+    return false;
+  }
+  const bool new_target = target_dirty_;
+  const bool new_source = source_dirty_;
+  if (!new_target && !new_source)
+    return true;
+  if (new_target && !backends_.choose(parameters_.backend, parameters_.sampling, error))
+    return false;
+
+  // A resolution too fine for the clouds is named as such before the outlier gap, which
+  // follows it, would split them into fragments.
+  const double resolution = parameters_.grid.resolution;
+  for (const auto& [is_new, input, which] :
+       {std::make_tuple(new_target, &target_input_, "target"),
+        std::make_tuple(new_source, &source_input_, "source")}) {
+    if (is_new)
+      error = resolutionError(*input, resolution, which);
+    if (!error.empty())
+      return false;
+  }
+  // The local clouds first: everything else is built from them. Only the changed clouds
+  // are tasks, so a new source alone starts no thread.
+  const double gap = kOutlierGapVoxels * resolution;
+  std::vector<std::function<void()>> local_tasks;
+  if (new_target)
+    local_tasks.emplace_back([&] { target_ = makeLocalCloud(target_input_, gap); });
+  if (new_source)
+    local_tasks.emplace_back([&] { source_ = makeLocalCloud(source_input_, gap); });
+  parallelFor(static_cast<int>(local_tasks.size()), parameters_.num_threads,
+              [&](int task) { local_tasks[static_cast<std::size_t>(task)](); });
+  if (target_.points.size() < kMinimumPoints) {
+    error = describeTooFew("target", target_);
+    return false;
+  }
+  if (source_.points.size() < kMinimumPoints) {
+    error = describeTooFew("source", source_);
+    return false;
+  }
+  // An unchanged cloud passed at this resolution already (a new resolution marks both).
+  if (new_target)
+    error = structureError(target_, resolution, "target");
+  if (error.empty() && new_source)
+    error = structureError(source_, resolution, "source");
+  if (!error.empty())
+    return false;
+  if (new_target)
+    target_warning_ = describeOutliers("target", target_, gap);
+  if (new_source)
+    source_warning_ = describeOutliers("source", source_, gap);
+  const int num_levels = parameters_.grid.pyramid_levels;
+  if (new_target) {
+    // Refuse a too-fine resolution up front: no coarser level needs more voxels.
+    GridGeometry finest;
+    if (!makeGridGeometry(target_.points, resolution, finest, error))
+      return false;
+    levels_.clear();
+    levels_.resize(static_cast<std::size_t>(num_levels));
+    for (int l = 0; l < num_levels; ++l)
+      levels_[static_cast<std::size_t>(l)].resolution = levelResolution(l);
+    distributions_.reset();
+  }
+
+  // Longest first: a free thread takes the next task.
+  std::vector<std::function<void()>> tasks;
+  if (new_source)
+    tasks.emplace_back([this] { buildSourceSamples(); });
+  if (new_target && parameters_.refinement.method == Refinement::PointToDistribution)
+    tasks.emplace_back([this, resolution] {
+      distributions_ = std::make_unique<TargetDistributions>(
+          target_.points, parameters_.effectiveRefinementResolution(), kRefinementMinimumPoints,
+          kRefinementNoiseFraction * resolution);
+    });
+  if (new_target)
+    for (int l = 0; l < num_levels; ++l)
+      tasks.emplace_back([this, l] { buildGrid(l); });
+  parallelFor(static_cast<int>(tasks.size()), parameters_.num_threads,
+              [&](int task) { tasks[static_cast<std::size_t>(task)](); });
+
+  target_dirty_ = false;
+  source_dirty_ = false;
+  // New levels need the samples; new samples need handing to the existing backends.
+  for (std::size_t l = 0; l < levels_.size(); ++l) {
+    Level& level = levels_[l];
+    level.samples = source_levels_[l];
+    for (auto& slot : level.slots)
+      if (slot)
+        slot->setSource(level.samples);
+  }
+  return true;
+}
+
+double
+PreparedProblem::levelResolution(int level) const
+{
+  // The source's samples and the target's levels are built concurrently: both take the
+  // sizes from here.
+  return parameters_.grid.resolution * std::ldexp(1.0, level);
+}
+
+int
+PreparedProblem::firstSearchedLevel() const
+{
+  return parameters_.refinement.method != Refinement::None &&
+                 parameters_.grid.pyramid_levels > 1
+             ? 1
+             : 0;
+}
+
+backend::ScoringBackend&
+PreparedProblem::backend(int level, int slot)
+{
+  Level& l = levels_[static_cast<std::size_t>(level)];
+  std::unique_ptr<backend::ScoringBackend>& b = l.slots[slot];
+  if (!b) {
+    b = backends_.make();
+    b->setTarget(l.grid);
+    b->setSource(l.samples);
+  }
+  return *b;
+}
+
+LocalPose
+PreparedProblem::toLocal(const Eigen::Matrix4d& pose) const
+{
+  // target_local = R * source_local + R c_s + t - c_t.
+  LocalPose local;
+  local.rotation = pose.topLeftCorner<3, 3>();
+  local.translation =
+      local.rotation * source_.centroid + pose.topRightCorner<3, 1>() - target_.centroid;
+  return local;
+}
+
+Eigen::Matrix4d
+PreparedProblem::fromLocal(const LocalPose& local) const
+{
+  Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+  pose.topLeftCorner<3, 3>() = local.rotation;
+  pose.topRightCorner<3, 1>() =
+      local.translation - local.rotation * source_.centroid + target_.centroid;
+  return pose;
+}
+
+double
+PreparedProblem::mutualInformation(const Eigen::Matrix4d& pose,
+                                   JointHistogram& histogram,
+                                   int level,
+                                   int slot)
+{
+  const LocalPose local = toLocal(pose);
+  if (!local.rotation.allFinite() || !local.translation.allFinite()) {
+    histogram.overlap_voxels = 0;
+    return 0.0;
+  }
+  backend(level, slot)
+      .jointHistogram(local.rotation.cast<float>(), local.translation.cast<float>(), histogram);
+  return histogram.overlap_voxels == 0 ? 0.0 : core::mutualInformation(histogram);
+}
+
+std::vector<std::string>
+PreparedProblem::warnings() const
+{
+  std::vector<std::string> warnings;
+  for (const std::string* warning : {&target_warning_, &source_warning_})
+    if (!warning->empty())
+      warnings.push_back(*warning);
+  return warnings;
+}
+
+std::vector<StageTiming>
+PreparedProblem::backendProfile() const
+{
+  std::vector<StageTiming> stages;
+  for (const Level& level : levels_)
+    for (const auto& slot : level.slots)
+      if (slot)
+        slot->appendProfile(stages);
+  return stages;
+}
+
+void
+PreparedProblem::resetBackendProfile()
+{
+  for (Level& level : levels_)
+    for (auto& slot : level.slots)
+      if (slot)
+        slot->resetProfile();
+}
+
+void
+PreparedProblem::buildGrid(int level)
+{
+  Level& l = levels_[static_cast<std::size_t>(level)];
+  auto grid = std::make_shared<TargetGrid>();
+  std::string error;
+  // prepare() has ruled out every reason this could fail.
+  if (!buildTargetGrid(target_.points, l.resolution, parameters_.grid.feature,
+                       levelBinning(l.resolution), *grid, error))
+    throw std::runtime_error(error);
+  l.grid = std::move(grid);
+}
+
+FeatureBinning
+PreparedProblem::levelBinning(double level_resolution) const
+{
+  // Point counts grow with the voxel's surface area, so the PointCount range scales with
+  // the square of the resolution ratio; VarianceZ is already normalised by the resolution.
+  FeatureBinning b = parameters_.grid.binning();
+  if (parameters_.grid.feature == Feature::PointCount) {
+    const double ratio = level_resolution / parameters_.grid.resolution;
+    b.max_value *= ratio * ratio;
+  }
+  return b;
+}
+
+void
+PreparedProblem::buildSourceSamples()
+{
+  using SamplesPtr = std::shared_ptr<const SourceSamples>;
+  const int num_levels = parameters_.grid.pyramid_levels;
+  const int subdivision = parameters_.sampling.source_subdivision;
+  std::vector<double> cells(static_cast<std::size_t>(num_levels), 0.0); // 0: every point
+  std::vector<double> needed;
+  if (subdivision > 0)
+    for (int l = 0; l < num_levels; ++l)
+      needed.push_back(cells[static_cast<std::size_t>(l)] = levelResolution(l) / subdivision);
+
+  // When every cell size is the smallest one times a power of two (the usual case), one
+  // sort of the points serves them all: the coarser samples merge the finer.
+  const double base = needed.empty() ? 0.0 : *std::min_element(needed.begin(), needed.end());
+  auto octave = [&](double cell) {
+    const double k = std::log2(cell / base);
+    const long rounded = std::lround(k);
+    return std::abs(k - static_cast<double>(rounded)) < 1e-9 ? static_cast<int>(rounded) : -1;
+  };
+  int depth = 0;
+  bool nested = !needed.empty();
+  for (const double c : needed) {
+    nested = nested && octave(c) >= 0;
+    depth = std::max(depth, octave(c));
+  }
+  std::vector<SamplesPtr> pyramid;
+  if (nested)
+    for (auto& samples : makeSourceSamplePyramid(source_.points, base, depth))
+      pyramid.push_back(std::make_shared<const SourceSamples>(std::move(samples)));
+  SamplesPtr every_point;
+  auto samplesFor = [&](double cell) -> SamplesPtr {
+    if (cell <= 0.0) {
+      if (!every_point)
+        every_point =
+            std::make_shared<const SourceSamples>(makeSourceSamples(source_.points, 0.0));
+      return every_point;
+    }
+    if (nested)
+      return pyramid[static_cast<std::size_t>(octave(cell))];
+    return std::make_shared<const SourceSamples>(makeSourceSamples(source_.points, cell));
+  };
+  source_levels_.clear();
+  for (const double c : cells)
+    source_levels_.push_back(samplesFor(c));
+}
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,153 @@
+/*
+ * pcl_mi: one registration problem made ready to score: both clouds in local frames, the
+ * target's grid and the source's samples per pyramid level, the refinement's target
+ * distributions and the backends. What a parameter change makes stale follows from the
+ * parameter group that changed.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include "backend/backend_factory.h"
+#include "features/source_samples.h"
+#include "features/voxel_grid.h"
+#include "refine/refinement.h"
+
+#include <pcl_mi/parameters.h>
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pcl_mi {
+namespace core {
+
+/** \brief A source-to-target pose between the local frames:
+ * target_local = rotation * source_local + translation. */
+struct LocalPose {
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d translation;
+};
+
+/** \brief The clouds and everything built from them for one parameter set. */
+class PreparedProblem {
+public:
+  /** \brief Replaces the (validated) parameters and marks what their change made stale. */
+  void
+  setParameters(const Parameters& parameters);
+  const Parameters&
+  parameters() const
+  {
+    return parameters_;
+  }
+
+  void
+  setTarget(PointList points);
+  void
+  setSource(PointList points);
+
+  /** \brief Brings everything stale up to date; false (with \a error) when the clouds or
+   * parameters cannot be used. The work runs as independent tasks over the threads, each
+   * writing only its own outputs, so the result does not depend on the thread count. */
+  bool
+  prepare(std::string& error);
+
+  /** \brief Pyramid levels (0 = finest) and their voxel sizes. */
+  int
+  levels() const
+  {
+    return static_cast<int>(levels_.size());
+  }
+  double
+  levelResolution(int level) const;
+
+  /** \brief First pyramid level the MI search runs on: with a refinement the search skips
+   * the finest level, since the refinement from the next level's optimum converges finer
+   * than the quantised finest-level MI, for a fraction of the evaluations. */
+  int
+  firstSearchedLevel() const;
+
+  /** \brief Mutual information at a source-to-target pose in the input frames, on
+   * \a level, computed by evaluator \a slot (0 or 1; the two may run concurrently). */
+  double
+  mutualInformation(const Eigen::Matrix4d& pose,
+                    JointHistogram& histogram,
+                    int level = 0,
+                    int slot = 0);
+
+  /** \brief The pose between the local frames, and back. */
+  LocalPose
+  toLocal(const Eigen::Matrix4d& pose) const;
+  Eigen::Matrix4d
+  fromLocal(const LocalPose& local) const;
+
+  const LocalCloud&
+  target() const
+  {
+    return target_;
+  }
+  const LocalCloud&
+  source() const
+  {
+    return source_;
+  }
+  /** \brief The refinement's target and the source samples it moves (with a refinement). */
+  const TargetDistributions&
+  distributions() const
+  {
+    return *distributions_;
+  }
+  const SourceSamples&
+  refinementSamples() const
+  {
+    return *source_levels_.front();
+  }
+
+  /** \brief Far-outlier warnings of the current clouds. */
+  std::vector<std::string>
+  warnings() const;
+
+  const backend::BackendFactory&
+  backends() const
+  {
+    return backends_;
+  }
+  std::vector<StageTiming>
+  backendProfile() const;
+  void
+  resetBackendProfile();
+
+private:
+  /** One pyramid level: the target grid, the source samples, one backend per slot. */
+  struct Level {
+    double resolution = 1.0;
+    std::shared_ptr<const TargetGrid> grid;
+    std::shared_ptr<const SourceSamples> samples;
+    std::unique_ptr<backend::ScoringBackend> slots[2];
+  };
+
+  backend::ScoringBackend&
+  backend(int level, int slot);
+  void
+  buildGrid(int level);
+  void
+  buildSourceSamples();
+  FeatureBinning
+  levelBinning(double level_resolution) const;
+
+  Parameters parameters_;
+  PointList target_input_, source_input_;
+  bool has_target_ = false, has_source_ = false;
+  bool target_dirty_ = true, source_dirty_ = true;
+  LocalCloud target_, source_;
+  std::string target_warning_, source_warning_;
+  std::vector<Level> levels_;
+  /** The source's samples per level (finest first), built with the source. */
+  std::vector<std::shared_ptr<const SourceSamples>> source_levels_;
+  std::unique_ptr<TargetDistributions> distributions_;
+  backend::BackendFactory backends_;
+};
+
+} // namespace core
+} // namespace pcl_mi

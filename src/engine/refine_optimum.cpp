@@ -1,0 +1,56 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "engine/refine_optimum.h"
+
+#include "refine/refinement.h"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+/** A refinement that moves the pose further than this (times the voxel size of the finest
+ * level the MI search ran on, and degrees) left the MI basin and is discarded. The MI
+ * optimum is quantised by that level's voxels, so it can be up to about one voxel off. */
+constexpr double kRefinementMaxShift = 1.0;
+constexpr double kRefinementMaxTurnDeg = 5.0;
+
+} // namespace
+
+RefinedOptimum
+refineOptimum(const PreparedProblem& problem,
+              const SearchSpace& space,
+              const Eigen::Matrix4d& optimum)
+{
+  const Parameters& p = problem.parameters();
+  const LocalPose start = problem.toLocal(optimum);
+  RefinementOptions options;
+  options.max_iterations = p.refinement.max_iterations;
+  options.num_threads = p.num_threads;
+  const std::array<bool, 6> searched = space.searched();
+  for (int i = 0; i < 6; ++i)
+    options.active[i] = searched[static_cast<std::size_t>(i)];
+  const RefinementResult refined = refineToDistributions(
+      problem.distributions(), problem.refinementSamples(), start.rotation, start.translation,
+      options);
+
+  RefinedOptimum result;
+  result.iterations = refined.iterations;
+  const double turn_deg =
+      Eigen::AngleAxisd(refined.rotation * start.rotation.transpose()).angle() * 180.0 / M_PI;
+  const double searched_resolution = problem.levelResolution(problem.firstSearchedLevel());
+  result.accepted =
+      (refined.translation - start.translation).norm() <= kRefinementMaxShift * searched_resolution &&
+      turn_deg <= kRefinementMaxTurnDeg;
+  if (result.accepted)
+    result.transformation = problem.fromLocal({refined.rotation, refined.translation});
+  return result;
+}
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,29 @@
+/*
+ * pcl_mi: the refinement of the MI optimum against the target's distributions, and the
+ * test that keeps it inside the MI basin.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include "engine/prepared_problem.h"
+#include "engine/search_space.h"
+
+#include <Eigen/Core>
+
+namespace pcl_mi {
+namespace core {
+
+/** \brief A refined pose and whether it stays inside the MI basin. */
+struct RefinedOptimum {
+  Eigen::Matrix4d transformation = Eigen::Matrix4d::Identity(); ///< source to target
+  int iterations = 0;    ///< Gauss-Newton iterations
+  bool accepted = false; ///< within a searched voxel and 5 degrees of the MI optimum
+};
+
+/** \brief Refines \a optimum (source to target, input frames) in the parameters \a space
+ * searches. */
+RefinedOptimum
+refineOptimum(const PreparedProblem& problem, const SearchSpace& space, const Eigen::Matrix4d& optimum);
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,267 @@
+/*
+ * pcl_mi: the engine's facade. align() reads top to bottom: check the guess, prepare the
+ * problem, search coarse to fine, refine, report.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_mi/registration_core.h>
+
+#include "engine/input_checks.h"
+#include "engine/prepared_problem.h"
+#include "engine/refine_optimum.h"
+#include "engine/search_space.h"
+#include "search/coarse_to_fine.h"
+#ifdef PCL_MI_WITH_OPENCL
+#include "backend/opencl_backend.h"
+#endif
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+
+namespace pcl_mi {
+
+namespace {
+
+/** Azimuth coverage (degrees) below which a cloud has a narrow field of view
+ * (SearchParameters::narrow_view_position_starts): a spinning LiDAR's scan covers 360, a
+ * solid-state sensor's its field of view. */
+constexpr double kNarrowViewDegrees = 180.0;
+
+/** The search's cost: minus the MI of the pose a search vector stands for. */
+class MutualInformationCosts final : public core::LevelCosts {
+public:
+  MutualInformationCosts(core::PreparedProblem& problem, const core::SearchSpace& space)
+  : problem_(problem), space_(space)
+  {}
+
+  int
+  levels() const override
+  {
+    return problem_.levels();
+  }
+
+  double
+  resolution(int level) const override
+  {
+    return problem_.levelResolution(level);
+  }
+
+  double
+  cost(int level, int slot, const Eigen::VectorXd& x) override
+  {
+    return -problem_.mutualInformation(space_.pose(x), histograms_[slot], level, slot);
+  }
+
+private:
+  core::PreparedProblem& problem_;
+  const core::SearchSpace& space_;
+  JointHistogram histograms_[2]; // one per slot: the two may run concurrently
+};
+
+/** Wall-clock stages of align(), closed one after the other. */
+class StageClock {
+public:
+  void
+  end(std::vector<StageTiming>& stages, std::string name, int calls)
+  {
+    const auto now = std::chrono::steady_clock::now();
+    stages.push_back(
+        {std::move(name), calls, std::chrono::duration<double, std::milli>(now - start_).count()});
+    start_ = now;
+  }
+
+private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+} // namespace
+
+struct RegistrationCore::Impl {
+  core::PreparedProblem problem;
+  JointHistogram scratch;
+};
+
+RegistrationCore::RegistrationCore() : impl_(std::make_unique<Impl>()) {}
+RegistrationCore::~RegistrationCore() = default;
+RegistrationCore::RegistrationCore(RegistrationCore&&) noexcept = default;
+RegistrationCore&
+RegistrationCore::operator=(RegistrationCore&&) noexcept = default;
+
+std::string
+RegistrationCore::setParameters(const Parameters& parameters)
+{
+  std::string error = parameters.validate();
+  if (error.empty())
+    impl_->problem.setParameters(parameters);
+  return error;
+}
+
+const Parameters&
+RegistrationCore::parameters() const
+{
+  return impl_->problem.parameters();
+}
+
+void
+RegistrationCore::setTarget(PointList points)
+{
+  impl_->problem.setTarget(std::move(points));
+}
+
+void
+RegistrationCore::setSource(PointList points)
+{
+  impl_->problem.setSource(std::move(points));
+}
+
+AlignmentResult
+RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
+{
+  AlignmentResult result;
+  result.transformation = guess;
+  const std::string guess_error = core::rigidTransformError(guess);
+  if (!guess_error.empty()) {
+    result.error = "the initial guess " + guess_error;
+    return result;
+  }
+  result.error = maxIterationsError(max_iterations);
+  if (!result.error.empty())
+    return result;
+
+  core::PreparedProblem& problem = impl_->problem;
+  StageClock clock;
+  if (!problem.prepare(result.error))
+    return result;
+  result.warnings = problem.warnings();
+  clock.end(result.stages, "prepare", 1);
+  if (problem.mutualInformation(guess, impl_->scratch) <= 0.0 &&
+      impl_->scratch.overlap_voxels == 0) {
+    result.error = "the bounding boxes of source and target do not overlap at the initial "
+                   "guess";
+    return result;
+  }
+
+  // The search: rotations turn the guessed source about its centroid.
+  const Parameters& p = problem.parameters();
+  const Eigen::Vector3d pivot = (guess * problem.source().centroid.homogeneous()).head<3>();
+  const core::SearchSpace space(p, guess, pivot);
+  core::CoarseToFineOptions options = space.searchOptions(p);
+  options.first_level = problem.firstSearchedLevel();
+  options.max_iterations = max_iterations;
+  const bool narrow_view = std::min(problem.target().azimuth_coverage_deg,
+                                    problem.source().azimuth_coverage_deg) < kNarrowViewDegrees;
+  options.position_starts =
+      options.x_index >= 0 || options.y_index >= 0
+          ? std::max(p.search.position_starts,
+                     narrow_view ? p.search.narrow_view_position_starts : 0)
+          : 0;
+  MutualInformationCosts costs(problem, space);
+  const core::CoarseToFineResult found = core::searchCoarseToFine(costs, options);
+  // The first search stage also timed the overlap check at the guess.
+  result.stages.insert(result.stages.end(), found.stages.begin(), found.stages.end());
+  result.position_starts = options.position_starts;
+  result.iterations = found.iterations;
+  result.evaluations = found.evaluations;
+  result.converged = found.best.converged;
+  result.mutual_information = -found.best.value;
+  result.transformation = space.pose(found.best.x);
+
+  if (p.refinement.method == Refinement::PointToDistribution) {
+    const auto start = std::chrono::steady_clock::now();
+    const core::RefinedOptimum refined = core::refineOptimum(problem, space, result.transformation);
+    result.stages.push_back(
+        {"refinement", refined.iterations,
+         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+             .count()});
+    if (refined.accepted) {
+      result.refinement_iterations = refined.iterations;
+      result.transformation = refined.transformation;
+      result.mutual_information = problem.mutualInformation(result.transformation, impl_->scratch);
+    }
+  }
+  return result;
+}
+
+double
+RegistrationCore::evaluate(const Eigen::Matrix4d& pose, std::string* error)
+{
+  std::string why;
+  if (!impl_->problem.prepare(why)) {
+    if (error)
+      *error = why;
+    return -1.0;
+  }
+  return impl_->problem.mutualInformation(pose, impl_->scratch);
+}
+
+bool
+RegistrationCore::jointHistogram(const Eigen::Matrix4d& pose,
+                                 JointHistogram& histogram,
+                                 std::string* error)
+{
+  std::string why;
+  if (!impl_->problem.prepare(why)) {
+    if (error)
+      *error = why;
+    return false;
+  }
+  impl_->problem.mutualInformation(pose, histogram);
+  return true;
+}
+
+std::vector<StageTiming>
+RegistrationCore::backendProfile() const
+{
+  return impl_->problem.backendProfile();
+}
+
+void
+RegistrationCore::resetBackendProfile()
+{
+  impl_->problem.resetBackendProfile();
+}
+
+const std::string&
+RegistrationCore::backendName() const
+{
+  return impl_->problem.backends().name();
+}
+
+const std::string&
+RegistrationCore::backendWarning() const
+{
+  return impl_->problem.backends().warning();
+}
+
+std::size_t
+RegistrationCore::droppedTargetPoints() const
+{
+  const core::LocalCloud& c = impl_->problem.target();
+  return c.non_finite + c.no_return + c.outliers;
+}
+
+std::size_t
+RegistrationCore::droppedSourcePoints() const
+{
+  const core::LocalCloud& c = impl_->problem.source();
+  return c.non_finite + c.no_return + c.outliers;
+}
+
+bool
+openClAvailable(std::string* reason)
+{
+#ifdef PCL_MI_WITH_OPENCL
+  std::string why;
+  const bool ok = backend::openClDevice(-1, -1, why) != nullptr;
+  if (reason)
+    *reason = ok ? std::string() : why;
+  return ok;
+#else
+  if (reason)
+    *reason = "built without the OpenCL backend";
+  return false;
+#endif
+}
+
+} // namespace pcl_mi

@@ -1,0 +1,75 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "engine/search_space.h"
+
+#include "engine/pose.h"
+
+#include <algorithm>
+
+namespace pcl_mi {
+namespace core {
+
+SearchSpace::SearchSpace(const Parameters& parameters,
+                         const Eigen::Matrix4d& guess,
+                         const Eigen::Vector3d& pivot)
+: guess_(guess), pivot_(pivot)
+{
+  for (int i = 0; i < 6; ++i)
+    if (parameters.search.simplex_steps[i] != 0.0)
+      active_.push_back(i);
+}
+
+Eigen::Matrix4d
+SearchSpace::pose(const Eigen::VectorXd& x) const
+{
+  Vector6d full = Vector6d::Zero();
+  for (std::size_t i = 0; i < active_.size(); ++i)
+    full[active_[i]] = x[static_cast<Eigen::Index>(i)];
+  return transformFromParameters(full, guess_, pivot_);
+}
+
+Eigen::Index
+SearchSpace::index(int parameter) const
+{
+  const auto it = std::find(active_.begin(), active_.end(), parameter);
+  return it == active_.end() ? -1 : static_cast<Eigen::Index>(it - active_.begin());
+}
+
+std::array<bool, 6>
+SearchSpace::searched() const
+{
+  std::array<bool, 6> searched{};
+  for (const int i : active_)
+    searched[static_cast<std::size_t>(i)] = true;
+  return searched;
+}
+
+CoarseToFineOptions
+SearchSpace::searchOptions(const Parameters& parameters) const
+{
+  const SearchParameters& s = parameters.search;
+  const Eigen::Index n = static_cast<Eigen::Index>(active_.size());
+  CoarseToFineOptions o;
+  o.steps.resize(n);
+  o.tolerance.resize(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int parameter = active_[static_cast<std::size_t>(i)];
+    o.steps[i] = s.simplex_steps[parameter];
+    o.tolerance[i] =
+        parameter < 3 ? parameters.effectiveTranslationTolerance() : s.rotation_tolerance;
+    o.translational.push_back(parameter < 3);
+  }
+  o.x_index = index(0);
+  o.y_index = index(1);
+  o.yaw_index = index(5);
+  o.heading_starts = s.heading_starts;
+  o.symmetric_start = s.symmetric_start;
+  o.restarts = s.restarts;
+  o.restart_scale = s.restart_scale;
+  o.num_threads = parameters.num_threads;
+  return o;
+}
+
+} // namespace core
+} // namespace pcl_mi

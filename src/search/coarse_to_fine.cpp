@@ -1,0 +1,295 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "search/coarse_to_fine.h"
+
+#include "util/parallel.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+/** Tolerance of pyramid level l > 0, relative to the finest level's: factor * 2^l. */
+constexpr double kCoarseToleranceFactor = 30.0;
+
+/** Iterations of the search from the guess on the first finer level. That candidate only
+ * has to keep a good guess from being pulled off its peak by the coarse grid; a search
+ * that needs more is travelling far, which the search from the coarse optimum covers.
+ * Capping it keeps the runtime from growing with the initial error; a capped search that
+ * wins is finished on its own afterwards. */
+constexpr int kGuessCandidateIterations = 25;
+
+/** Most optima of further starts that the level after the coarsest refines besides the
+ * best one: the coarse grid ranks them, the finer one decides. */
+constexpr int kMaxStartCandidates = 3;
+/** Rotation (rad) below which two coarse optima half a coarse voxel apart are one basin. */
+constexpr double kCandidateSeparationRad = 0.2;
+
+/** One search's start: point, simplex steps and iteration cap. */
+struct Start {
+  const Eigen::VectorXd& x0;
+  Eigen::VectorXd steps;
+  int cap;
+};
+
+/** The searches of one alignment, with the iteration budget, the counts and the best
+ * result of the current level. */
+class Searcher {
+public:
+  Searcher(LevelCosts& costs, const CoarseToFineOptions& options)
+  : costs_(costs), o_(options), budget_(options.max_iterations),
+    stage_start_(std::chrono::steady_clock::now())
+  {}
+
+  /** One Nelder-Mead search on \a level by evaluator \a slot, capped at \a cap. */
+  NelderMeadResult
+  search(int level, int slot, const Start& start) const
+  {
+    auto cost = [&](const Eigen::VectorXd& x) { return costs_.cost(level, slot, x); };
+    NelderMeadOptions options;
+    options.max_iterations = std::max(start.cap, 0);
+    // A coarse level only has to land in the basin: the next level restarts with a larger
+    // simplex than this tolerance anyway.
+    options.tolerance =
+        o_.tolerance * (level > 0 ? kCoarseToleranceFactor * std::ldexp(1.0, level) : 1.0);
+    return minimizeNelderMead(cost, start.x0, start.steps, options);
+  }
+
+  /** Two independent searches on one level, one per evaluator, concurrent when threads
+   * allow: the same results either way. */
+  std::array<NelderMeadResult, 2>
+  searchBoth(int level, const Start& a, const Start& b) const
+  {
+    std::array<NelderMeadResult, 2> results;
+    parallelFor(2, o_.num_threads, [&](int k) {
+      results[static_cast<std::size_t>(k)] = search(level, k, k == 0 ? a : b);
+    });
+    return results;
+  }
+
+  /** Books a finished search against the budget and the level's best. */
+  void
+  account(const NelderMeadResult& r)
+  {
+    budget_ -= r.iterations;
+    result_.iterations += r.iterations;
+    result_.evaluations += r.evaluations;
+    if (!have_best_ || r.value < result_.best.value) {
+      result_.best = r;
+      have_best_ = true;
+    }
+  }
+
+  /** The best result of each start on the coarsest level (each start's pair counts as
+   * one), booked. */
+  std::vector<NelderMeadResult>
+  searchCoarsest(int level)
+  {
+    const Eigen::Index n = o_.steps.size();
+    const Eigen::VectorXd origin = Eigen::VectorXd::Zero(n);
+    const int headings = o_.yaw_index >= 0 ? o_.heading_starts : 1;
+    const int positions = o_.position_starts;
+    const int starts = headings + positions;
+    // Each start gets the same share of the budget; the mirrored simplex (all steps
+    // negated) makes the pair symmetric about the start, and the fixed shares make the
+    // result independent of whether the pair runs concurrently.
+    const int start_budget = budget_ / starts;
+    const int mirrored_cap = o_.symmetric_start ? start_budget / 2 : 0;
+    const int forward_cap = start_budget - mirrored_cap;
+    std::vector<NelderMeadResult> start_best;
+    for (int k = 0; k < starts; ++k) {
+      Eigen::VectorXd start = origin;
+      if (k > 0 && k < headings) // k * 360 / headings degrees, in (-180, 180]
+        start[o_.yaw_index] = std::remainder(2.0 * M_PI * k / headings, 2.0 * M_PI);
+      if (k >= headings) {
+        const double angle = 2.0 * M_PI * (k - headings) / positions;
+        if (o_.x_index >= 0)
+          start[o_.x_index] = 0.5 * o_.steps[o_.x_index] * std::cos(angle);
+        if (o_.y_index >= 0)
+          start[o_.y_index] = 0.5 * o_.steps[o_.y_index] * std::sin(angle);
+      }
+      if (o_.symmetric_start) {
+        const auto both = searchBoth(level, {start, o_.steps, forward_cap},
+                                     {start, -o_.steps, mirrored_cap});
+        account(both[0]);
+        account(both[1]);
+        start_best.push_back(both[1].value < both[0].value ? both[1] : both[0]);
+      }
+      else {
+        start_best.push_back(search(level, 0, {start, o_.steps, forward_cap}));
+        account(start_best.back());
+      }
+    }
+    return start_best;
+  }
+
+  /** What the first finer level refines: the coarse optimum; the guess (the origin) when
+   * the optimum left it, since a coarse grid can pull a good guess off the fine peak; and
+   * with several starts the best few optima of the others that are not the same basin (a
+   * straight road looks much the same turned by 180 deg on a coarse grid). */
+  std::vector<Eigen::VectorXd>
+  candidates(int level, std::vector<NelderMeadResult> start_best) const
+  {
+    const Eigen::Index n = o_.steps.size();
+    std::vector<Eigen::VectorXd> candidates{result_.best.x};
+    if (level <= o_.first_level)
+      return candidates;
+    if ((result_.best.x.cwiseAbs().array() > o_.tolerance.array() * kCoarseToleranceFactor)
+            .any())
+      candidates.push_back(Eigen::VectorXd::Zero(n));
+    if (start_best.size() < 2)
+      return candidates;
+    std::stable_sort(start_best.begin(), start_best.end(),
+                     [](const NelderMeadResult& a, const NelderMeadResult& b) {
+                       return a.value < b.value;
+                     });
+    const double half_voxel = 0.5 * costs_.resolution(level);
+    int added = 0;
+    for (const NelderMeadResult& r : start_best) {
+      if (added == kMaxStartCandidates)
+        break;
+      bool distinct = true;
+      for (const Eigen::VectorXd& c : candidates) {
+        double shift = 0.0, turn = 0.0;
+        for (Eigen::Index i = 0; i < n; ++i) {
+          const double delta = r.x[i] - c[i];
+          if (o_.translational[static_cast<std::size_t>(i)])
+            shift += delta * delta;
+          else
+            turn = std::max(turn, std::abs(std::remainder(delta, 2.0 * M_PI)));
+        }
+        if (std::sqrt(shift) < half_voxel && turn < kCandidateSeparationRad)
+          distinct = false;
+      }
+      if (distinct) {
+        candidates.push_back(r.x);
+        ++added;
+      }
+    }
+    return candidates;
+  }
+
+  /** Refines \a candidates on \a level with simplices of \a scale times the steps: the
+   * first (the coarser level's optimum) gets the budget, the others a capped search each,
+   * two at a time. The level's best is its own: costs of two levels do not compare. */
+  void
+  searchFiner(int level, const std::vector<Eigen::VectorXd>& candidates, double scale)
+  {
+    have_best_ = false;
+    const Eigen::VectorXd steps = scale * o_.steps;
+    if (candidates.size() == 1) {
+      account(search(level, 0, {candidates[0], steps, budget_}));
+      return;
+    }
+    const int cap = std::max(budget_ / 2, 0);
+    const int capped = std::min(cap, kGuessCandidateIterations);
+    std::vector<NelderMeadResult> from(candidates.size());
+    for (std::size_t i = 0; i < candidates.size(); i += 2) {
+      const int first_cap = i == 0 ? cap : capped;
+      if (i + 1 < candidates.size()) {
+        const auto both = searchBoth(level, {candidates[i], steps, first_cap},
+                                     {candidates[i + 1], steps, capped});
+        from[i] = both[0];
+        from[i + 1] = both[1];
+      }
+      else {
+        from[i] = search(level, 0, {candidates[i], steps, first_cap});
+      }
+    }
+    std::size_t winner = 0;
+    for (std::size_t i = 0; i < from.size(); ++i) {
+      account(from[i]);
+      if (from[i].value < from[winner].value)
+        winner = i;
+    }
+    // A capped candidate that wins before its search converged is finished from where it
+    // got.
+    if (winner > 0 && !from[winner].converged && budget_ > 0)
+      account(search(level, 0, {from[winner].x, 0.5 * steps, budget_}));
+  }
+
+  /** Restarts around the best vertex with simplices of alternating orientation. */
+  void
+  restart(int level, double scale)
+  {
+    for (int k = 0; k < o_.restarts && budget_ > 0; ++k) {
+      const NelderMeadResult r =
+          search(level, 0, {result_.best.x, (k % 2 ? scale : -scale) * o_.steps, budget_});
+      account(r);
+      // A restart that starts inside the tolerance takes no iteration; it still costs one,
+      // so that the budget ends the loop.
+      budget_ -= r.iterations == 0 ? 1 : 0;
+    }
+  }
+
+  /** Closes a stage with the evaluations since the previous one. */
+  void
+  endStage(std::string name)
+  {
+    const auto now = std::chrono::steady_clock::now();
+    result_.stages.push_back(
+        {std::move(name), result_.evaluations - stage_evaluations_,
+         std::chrono::duration<double, std::milli>(now - stage_start_).count()});
+    stage_evaluations_ = result_.evaluations;
+    stage_start_ = now;
+  }
+
+  std::string
+  levelName(int level) const
+  {
+    std::ostringstream s;
+    s << "search " << costs_.resolution(level) << " m";
+    return s.str();
+  }
+
+  CoarseToFineResult&
+  result()
+  {
+    return result_;
+  }
+
+private:
+  LevelCosts& costs_;
+  const CoarseToFineOptions& o_;
+  int budget_;
+  CoarseToFineResult result_;
+  bool have_best_ = false;
+  int stage_evaluations_ = 0;
+  std::chrono::steady_clock::time_point stage_start_;
+};
+
+} // namespace
+
+CoarseToFineResult
+searchCoarseToFine(LevelCosts& costs, const CoarseToFineOptions& options)
+{
+  Searcher searcher(costs, options);
+  int level = costs.levels() - 1;
+  std::vector<NelderMeadResult> start_best = searcher.searchCoarsest(level);
+  searcher.endStage(searcher.levelName(level));
+  std::vector<Eigen::VectorXd> candidates = searcher.candidates(level, std::move(start_best));
+  // Each finer level refines with a simplex half the size of the previous level's.
+  double scale = options.restart_scale;
+  while (level > options.first_level) {
+    --level;
+    searcher.searchFiner(level, candidates, scale);
+    candidates = {searcher.result().best.x};
+    if (level > options.first_level)
+      scale *= 0.5;
+    searcher.endStage(searcher.levelName(level));
+  }
+  searcher.restart(level, scale);
+  if (options.restarts > 0)
+    searcher.endStage("restarts");
+  return std::move(searcher.result());
+}
+
+} // namespace core
+} // namespace pcl_mi
