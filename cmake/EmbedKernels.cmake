@@ -1,15 +1,14 @@
-# Script mode (cmake -P): embeds OpenCL sources into a C++ file as one string, in order.
-#   -DINPUTS="kernels/voxel_math.h;kernels/joint_histogram.cl" -DOUTPUT=.../kernels.cpp
-#   -DSYMBOL=kJointHistogramKernelSource
-# The shared per-voxel arithmetic (voxel_math.h) goes first, so the kernels need no
+# Script mode (cmake -P): embeds an OpenCL source file, with a prelude before it, into a
+# C++ file as one string.
+#   -DPRELUDE=kernels/voxel_math.h -DINPUT=kernels/joint_histogram.cl
+#   -DOUTPUT=.../kernels.cpp -DSYMBOL=kJointHistogramKernelSource
+# The prelude is the per-voxel arithmetic the CPU backend shares, so the kernels need no
 # #include and the program builds from one string.
-set(content "")
-foreach(input IN LISTS INPUTS)
-  file(READ "${input}" text)
-  string(APPEND content "${text}\n")
-endforeach()
+file(READ "${PRELUDE}" prelude)
+file(READ "${INPUT}" kernels)
+set(content "${prelude}\n${kernels}")
 file(WRITE "${OUTPUT}.tmp"
-  "// Generated from ${INPUTS} by cmake/EmbedKernels.cmake; do not edit.\n"
+  "// Generated from ${PRELUDE} and ${INPUT} by cmake/EmbedKernels.cmake; do not edit.\n"
   "namespace pcl_mi {\nnamespace backend {\n"
   "extern const char* const ${SYMBOL};\n"
   "const char* const ${SYMBOL} = R\"pcl_mi_kernel(${content})pcl_mi_kernel\";\n"

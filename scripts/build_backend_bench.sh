@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-build-backend-bench}
 mkdir -p "$out"
-cmake -DINPUT=kernels/joint_histogram.cl -DOUTPUT="$out/joint_histogram_kernel.cpp" \
+cmake -DPRELUDE=kernels/voxel_math.h -DINPUT=kernels/joint_histogram.cl -DOUTPUT="$out/joint_histogram_kernel.cpp" \
       -DSYMBOL=kJointHistogramKernelSource -P cmake/EmbedKernels.cmake
 eigen=$(pkg-config --cflags eigen3 2>/dev/null || echo -I/usr/include/eigen3)
 flags=(-std=c++17 -O3 -DNDEBUG -DPCL_MI_WITH_OPENCL=1 -Iinclude -Isrc -I. $eigen -pthread)

@@ -1,0 +1,161 @@
+/*
+ * The coarse-to-fine search on synthetic costs: no clouds, only functions with known
+ * minima, so each property of the search is checked on its own.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "search/coarse_to_fine.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <functional>
+
+namespace {
+
+using pcl_mi::core::CoarseToFineOptions;
+using pcl_mi::core::CoarseToFineResult;
+
+/** A cost per level from one function of (level, x); counts the calls per level. */
+class SyntheticCosts : public pcl_mi::core::LevelCosts {
+public:
+  SyntheticCosts(int levels, std::function<double(int, const Eigen::VectorXd&)> f)
+  : levels_(levels), f_(std::move(f)), calls_(static_cast<std::size_t>(levels))
+  {}
+  int
+  levels() const override
+  {
+    return levels_;
+  }
+  double
+  resolution(int level) const override
+  {
+    return std::ldexp(1.0, level);
+  }
+  double
+  cost(int level, int, const Eigen::VectorXd& x) override
+  {
+    ++calls_[static_cast<std::size_t>(level)];
+    return f_(level, x);
+  }
+  int
+  calls(int level) const
+  {
+    return calls_[static_cast<std::size_t>(level)];
+  }
+
+private:
+  int levels_;
+  std::function<double(int, const Eigen::VectorXd&)> f_;
+  std::vector<std::atomic<int>> calls_;
+};
+
+/** x, y, yaw options with the paper's steps. */
+CoarseToFineOptions
+planarOptions()
+{
+  CoarseToFineOptions o;
+  o.steps = Eigen::Vector3d(8.0, 8.0, 0.8);
+  o.tolerance = Eigen::Vector3d(0.005, 0.005, 0.0005);
+  o.translational = {true, true, false};
+  o.x_index = 0;
+  o.y_index = 1;
+  o.yaw_index = 2;
+  return o;
+}
+
+double
+bowl(const Eigen::VectorXd& x, const Eigen::Vector3d& centre)
+{
+  return (x - centre).squaredNorm();
+}
+
+} // namespace
+
+TEST(CoarseToFine, FindsTheMinimumOfABowlOnEveryLevel)
+{
+  const Eigen::Vector3d centre(3.0, -2.0, 0.3);
+  SyntheticCosts costs(3, [&](int, const Eigen::VectorXd& x) { return bowl(x, centre); });
+  const CoarseToFineResult r = pcl_mi::core::searchCoarseToFine(costs, planarOptions());
+  EXPECT_TRUE(r.best.converged);
+  EXPECT_LT((r.best.x - centre).cwiseAbs().maxCoeff(), 0.01);
+  // Each level ran and is a stage of its own.
+  for (int level = 0; level < 3; ++level)
+    EXPECT_GT(costs.calls(level), 0) << level;
+  ASSERT_EQ(r.stages.size(), 3u);
+  EXPECT_EQ(r.stages[0].name, "search 4 m");
+  EXPECT_EQ(r.stages[2].name, "search 1 m");
+  int evaluations = 0;
+  for (const auto& s : r.stages)
+    evaluations += s.calls;
+  EXPECT_EQ(evaluations, r.evaluations);
+}
+
+TEST(CoarseToFine, FirstLevelSkipsTheFinerLevels)
+{
+  SyntheticCosts costs(3, [](int, const Eigen::VectorXd& x) { return x.squaredNorm(); });
+  CoarseToFineOptions o = planarOptions();
+  o.first_level = 1;
+  pcl_mi::core::searchCoarseToFine(costs, o);
+  EXPECT_EQ(costs.calls(0), 0);
+  EXPECT_GT(costs.calls(1), 0);
+}
+
+TEST(CoarseToFine, MirroredStartFindsMotionAgainstTheSteps)
+{
+  // A minimum far along the negative steps, behind a ridge at the origin's positive side:
+  // the forward simplex alone walks away from it.
+  const Eigen::Vector3d centre(-6.0, -6.0, -0.5);
+  auto f = [&](int, const Eigen::VectorXd& x) {
+    return std::min(bowl(x, centre), 20.0 + bowl(x, Eigen::Vector3d(6.0, 6.0, 0.5)));
+  };
+  CoarseToFineOptions o = planarOptions();
+  SyntheticCosts mirrored(1, f);
+  const auto with = pcl_mi::core::searchCoarseToFine(mirrored, o);
+  EXPECT_LT((with.best.x - centre).norm(), 0.05);
+  o.symmetric_start = false;
+  SyntheticCosts forward(1, f);
+  const auto without = pcl_mi::core::searchCoarseToFine(forward, o);
+  EXPECT_GT(without.best.value, with.best.value);
+}
+
+TEST(CoarseToFine, HeadingStartsReachAHeadingBehind)
+{
+  // The minimum at yaw 180 deg, a weaker one near the guess.
+  auto f = [](int, const Eigen::VectorXd& x) {
+    const double behind = std::remainder(x[2] - M_PI, 2.0 * M_PI);
+    return std::min(x[0] * x[0] + x[1] * x[1] + behind * behind,
+                    1.0 + x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+  };
+  CoarseToFineOptions o = planarOptions();
+  SyntheticCosts one(2, f);
+  const auto single = pcl_mi::core::searchCoarseToFine(one, o);
+  o.heading_starts = 4;
+  SyntheticCosts four(2, f);
+  const auto several = pcl_mi::core::searchCoarseToFine(four, o);
+  EXPECT_GT(single.best.value, 0.5); // stuck at the weaker minimum
+  EXPECT_LT(several.best.value, 1e-4);
+  EXPECT_NEAR(std::abs(std::remainder(several.best.x[2], 2.0 * M_PI)), M_PI, 0.01);
+}
+
+TEST(CoarseToFine, TheBudgetCapsEveryIterationAndThreadsDoNotChangeTheResult)
+{
+  const Eigen::Vector3d centre(1.0, 2.0, 0.1);
+  auto f = [&](int level, const Eigen::VectorXd& x) { return bowl(x, centre) + 0.01 * level; };
+  CoarseToFineOptions o = planarOptions();
+  o.max_iterations = 40;
+  o.restarts = 3;
+  SyntheticCosts capped(3, f);
+  const auto r = pcl_mi::core::searchCoarseToFine(capped, o);
+  EXPECT_LE(r.iterations, 40);
+  EXPECT_FALSE(r.best.converged);
+  o.max_iterations = 1000;
+  o.num_threads = 1;
+  SyntheticCosts serial(3, f);
+  const auto a = pcl_mi::core::searchCoarseToFine(serial, o);
+  o.num_threads = 2;
+  SyntheticCosts parallel(3, f);
+  const auto b = pcl_mi::core::searchCoarseToFine(parallel, o);
+  EXPECT_EQ(a.best.x, b.best.x);
+  EXPECT_EQ(a.evaluations, b.evaluations);
+}
