@@ -16,7 +16,7 @@ objs=()
 pids=()
 for src in src/engine/*.cpp src/search/*.cpp src/refine/*.cpp src/features/*.cpp \
            src/backend/backend_factory.cpp src/backend/cpu_backend.cpp \
-           src/backend/opencl_backend.cpp src/io/kitti.cpp src/io/file_checks.cpp \
+           src/backend/opencl_*.cpp src/io/kitti.cpp src/io/file_checks.cpp \
            apps/pcl_mi_backend_bench.cpp \
            "$out/joint_histogram_kernel.cpp"; do
   obj="$out/$(basename "${src%.cpp}").o"
