@@ -1,0 +1,140 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "compare/rows.h"
+
+#include "app_util.h"
+
+#include <Eigen/Geometry>
+
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+namespace pcl_mi {
+namespace compare {
+
+using pcl_mi::apps::split;
+
+namespace {
+constexpr std::size_t kLegacyFields = 14;
+constexpr std::size_t kFields = kLegacyFields + 3 + 2 * 12;
+} // namespace
+
+/** The first 14 columns are the original format, which readRows() still accepts; the columns
+ * after them keep what an analysis beyond these tables needs: the signed error components and
+ * both transforms (top three rows, row-major). */
+std::string
+csvHeader(bool with_poses)
+{
+  std::string h = "sequence,target,source,direction,true_translation_m,true_rotation_deg,"
+                  "initial_translation_m,initial_rotation_deg,method,translation_error_m,"
+                  "rotation_error_deg,seconds,converged,evaluations";
+  if (!with_poses)
+    return h;
+  h += ",along_error_m,left_error_m,up_error_m";
+  for (const char* name : {"estimate", "reference"})
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
+  return h;
+}
+
+/** \a error = estimate - reference translation (target frame) along the reference
+ * translation, to its left and up; NaN where the travel direction is undefined. */
+Eigen::Vector3d
+travelFrameError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& reference)
+{
+  const Eigen::Vector3d t = reference.topRightCorner<3, 1>();
+  const Eigen::Vector3d along = t.normalized();
+  const Eigen::Vector3d left_raw = Eigen::Vector3d::UnitZ().cross(along);
+  // Below 1 mm of motion, or within 0.6 deg of vertical, "along" and "left" say nothing.
+  if (!(t.norm() > 1e-3) || !(left_raw.norm() > 1e-2))
+    return Eigen::Vector3d::Constant(NAN);
+  const Eigen::Vector3d left = left_raw.normalized();
+  const Eigen::Vector3d up = along.cross(left);
+  const Eigen::Vector3d error = estimate.topRightCorner<3, 1>() - t;
+  return {error.dot(along), error.dot(left), error.dot(up)};
+}
+
+void
+writeRow(std::ostream& out, const Row& r)
+{
+  out << r.sequence << ',' << r.target << ',' << r.source << ',' << r.direction << ','
+      << r.true_translation << ',' << r.true_rotation << ',' << r.initial_translation << ','
+      << r.initial_rotation << ',' << r.method << ',' << r.translation_error << ','
+      << r.rotation_error << ',' << r.seconds << ',' << r.converged << ',' << r.evaluations;
+  for (int i = 0; i < 3; ++i)
+    out << ',' << r.travel_error[i];
+  const auto precision = out.precision(9); // enough for a float transform to round-trip
+  for (const Eigen::Matrix4d* m : {&r.estimate, &r.reference})
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 4; ++j)
+        out << ',' << (*m)(i, j);
+  out.precision(precision);
+  out << '\n';
+}
+
+/** Reads rows written by writeRow(); false with \a error on a malformed file. */
+bool
+readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
+{
+  std::ifstream in(path);
+  if (!in) {
+    error = "cannot open '" + path + "'";
+    return false;
+  }
+  std::string line;
+  int number = 0;
+  const std::string legacy_header = csvHeader(false), header = csvHeader(true);
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line == legacy_header || line == header)
+      continue;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    std::string item;
+    while (std::getline(ss, item, ','))
+      f.push_back(item);
+    try {
+      if (f.size() != kLegacyFields && f.size() != kFields)
+        throw std::invalid_argument("field count");
+      Row r;
+      r.sequence = f[0];
+      r.target = std::stoi(f[1]);
+      r.source = std::stoi(f[2]);
+      r.direction = f[3];
+      r.true_translation = std::stod(f[4]);
+      r.true_rotation = std::stod(f[5]);
+      r.initial_translation = std::stod(f[6]);
+      r.initial_rotation = std::stod(f[7]);
+      r.method = f[8];
+      r.translation_error = std::stod(f[9]);
+      r.rotation_error = std::stod(f[10]);
+      r.seconds = std::stod(f[11]);
+      r.converged = f[12] == "1";
+      r.evaluations = std::stoi(f[13]);
+      if (f.size() == kFields) {
+        std::size_t k = kLegacyFields;
+        for (int i = 0; i < 3; ++i)
+          r.travel_error[i] = std::stod(f[k++]);
+        for (Eigen::Matrix4d* m : {&r.estimate, &r.reference}) {
+          m->row(3) << 0.0, 0.0, 0.0, 1.0;
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 4; ++j)
+              (*m)(i, j) = std::stod(f[k++]);
+        }
+      }
+      rows.push_back(r);
+    }
+    catch (const std::exception&) {
+      error = "'" + path + "' line " + std::to_string(number) + " is not a pcl_mi_compare row";
+      return false;
+    }
+  }
+  return true;
+}
+
+} // namespace compare
+} // namespace pcl_mi

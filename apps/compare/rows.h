@@ -1,0 +1,55 @@
+/*
+ * pcl_mi_compare: one result row per (pair, method), and the CSV files that hold them.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace pcl_mi {
+namespace compare {
+
+/** One CSV row: a (pair, method) result. */
+struct Row {
+  std::string sequence, direction, method;
+  int target = 0, source = 0;
+  double true_translation = 0, true_rotation = 0;       // m, deg: the reference motion
+  double initial_translation = 0, initial_rotation = 0; // m, deg: error of the guess
+  double translation_error = 0, rotation_error = 0;     // m, deg: error of the result
+  double seconds = 0;
+  bool converged = false;
+  int evaluations = 0;
+  /** Signed translation error (m) in the pair's travel frame: along the reference
+   * translation, to its left and up (the clouds' z is up). NaN where undefined (a reference
+   * translation too short or vertical) or unknown (rows of files without these columns).
+   * Kept as read rather than derived from the rounded transforms below, so -merge writes
+   * back exactly what the shards wrote. */
+  Eigen::Vector3d travel_error = Eigen::Vector3d::Constant(NAN);
+  /** The result and the reference, source to target (NaN in rows of older files). */
+  Eigen::Matrix4d estimate = Eigen::Matrix4d::Constant(NAN);
+  Eigen::Matrix4d reference = Eigen::Matrix4d::Constant(NAN);
+};
+
+/** The CSV header; \a with_poses adds the travel-frame errors and both transforms. */
+std::string
+csvHeader(bool with_poses);
+
+/** \a estimate - reference translation (target frame) along the reference motion, to its
+ * left and up; NaN where the motion is too short or vertical. */
+Eigen::Vector3d
+travelFrameError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& reference);
+
+void
+writeRow(std::ostream& out, const Row& r);
+
+/** Reads rows written by writeRow(); false with \a error on a malformed file. */
+bool
+readRows(const std::string& path, std::vector<Row>& rows, std::string& error);
+
+} // namespace compare
+} // namespace pcl_mi

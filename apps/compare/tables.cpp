@@ -1,0 +1,207 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "compare/tables.h"
+
+#include "app_util.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+namespace pcl_mi {
+namespace compare {
+
+using pcl_mi::apps::median;
+
+namespace {
+
+double
+mean(const std::vector<double>& v)
+{
+  double s = 0;
+  for (double x : v)
+    s += x;
+  return v.empty() ? NAN : s / v.size();
+}
+
+bool
+succeeded(const Row& r, const std::vector<double>& bound)
+{
+  return r.translation_error < bound[0] && r.rotation_error < bound[1];
+}
+
+/** Width of the summary tables' method column: the longest name, at least 14. */
+int
+methodColumnWidth(const std::vector<std::string>& methods)
+{
+  int width = 14;
+  for (const auto& m : methods)
+    width = std::max(width, static_cast<int>(m.size()));
+  return width;
+}
+
+/** Prints one table: rows are bins of an initial-error value, columns the methods. */
+void
+printTable(const std::string& title,
+           const std::vector<Row>& rows,
+           const std::vector<std::string>& methods,
+           double bin_width,
+           int bins,
+           const char* unit,
+           const std::function<double(const Row&)>& key,
+           const std::function<double(const std::vector<const Row*>&)>& statistic,
+           const char* format)
+{
+  // Each column is as wide as its method's name (chains are long), at least 10.
+  std::vector<int> width;
+  for (const auto& m : methods)
+    width.push_back(std::max(10, static_cast<int>(m.size())));
+  std::printf("\n%s\n%-10s", title.c_str(), "bin");
+  for (std::size_t m = 0; m < methods.size(); ++m)
+    std::printf(" %*s", width[m], methods[m].c_str());
+  std::printf(" %6s\n", "pairs");
+  for (int b = 0; b < bins; ++b) {
+    const double lo = b * bin_width, hi = (b + 1) * bin_width;
+    std::vector<std::vector<const Row*>> per_method(methods.size());
+    for (const auto& r : rows) {
+      const double k = key(r);
+      if (k < lo || k >= hi)
+        continue;
+      for (std::size_t m = 0; m < methods.size(); ++m)
+        if (r.method == methods[m])
+          per_method[m].push_back(&r);
+    }
+    if (per_method.front().empty())
+      continue;
+    char label[32];
+    std::snprintf(label, sizeof(label), "%g-%g %s", lo, hi, unit);
+    std::printf("%-10s", label);
+    for (std::size_t m = 0; m < methods.size(); ++m) {
+      char cell[64] = "-";
+      if (!per_method[m].empty())
+        std::snprintf(cell, sizeof(cell), format, statistic(per_method[m]));
+      const char* text = cell + std::strspn(cell, " ");
+      std::printf(" %*s", width[m], text);
+    }
+    std::printf(" %6zu\n", per_method.front().size());
+  }
+}
+
+/** Mean signed error of the successful rows, per method and direction, as a percentage of
+ * the pair's reference translation: a method that overshoots or drifts sideways shows it here
+ * where the unsigned means hide it, and a bias that every method shares points at the
+ * reference poses (e.g. the calibration that brings them into the sensor frame) rather than
+ * at a method. The directions stay apart because a disagreement with the reference about
+ * where the later scan is keeps its sign along and left of the motion when the pair is run
+ * backwards, but flips it up: a scan lower than the reference says makes the forward motion
+ * descend and the backward one climb. */
+void
+printBias(const std::vector<Row>& rows,
+          const std::vector<std::string>& methods,
+          const std::vector<double>& bound)
+{
+  bool header = false;
+  const int name_width = methodColumnWidth(methods);
+  for (const auto& m : methods)
+    for (const char* direction : {"forward", "backward"}) {
+      std::vector<double> along, left, up;
+      for (const auto& row : rows) {
+        if (row.method != m || row.direction != direction || !succeeded(row, bound) ||
+            !row.travel_error.allFinite())
+          continue;
+        const Eigen::Vector3d percent = 100.0 * row.travel_error / row.true_translation;
+        along.push_back(percent[0]);
+        left.push_back(percent[1]);
+        up.push_back(percent[2]);
+      }
+      if (along.empty())
+        continue;
+      if (!header) {
+        std::printf("\nMean signed translation error of the successful rows [%% of the "
+                    "reference translation]\n%-*s %-9s %6s %9s %9s %9s\n",
+                    name_width, "method", "direction", "rows", "along", "left", "up");
+        header = true;
+      }
+      std::printf("%-*s %-9s %6zu %+9.3f %+9.3f %+9.3f\n", name_width, m.c_str(), direction,
+                  along.size(), mean(along), mean(left), mean(up));
+    }
+  if (header)
+    std::printf("(along: + = beyond the reference motion; left of and above the direction of "
+                "motion, z up)\n");
+}
+
+} // namespace
+
+void
+printTables(const std::vector<Row>& rows,
+            const std::vector<std::string>& methods,
+            const std::vector<double>& bound)
+{
+  auto by_translation = [](const Row& r) { return r.initial_translation; };
+  auto by_rotation = [](const Row& r) { return r.initial_rotation; };
+  auto mean_of = [](double Row::*field) {
+    return [field](const std::vector<const Row*>& v) {
+      std::vector<double> x;
+      for (const Row* r : v)
+        x.push_back(r->*field);
+      return mean(x);
+    };
+  };
+  auto median_seconds = [](const std::vector<const Row*>& v) {
+    std::vector<double> x;
+    for (const Row* r : v)
+      x.push_back(r->seconds);
+    return median(x);
+  };
+  auto success_rate = [&](const std::vector<const Row*>& v) {
+    int ok = 0;
+    for (const Row* r : v)
+      ok += succeeded(*r, bound);
+    return 100.0 * ok / v.size();
+  };
+  printTable("Mean translation error [m] by initial translation error", rows, methods, 1.0,
+             40, "m", by_translation, mean_of(&Row::translation_error), " %10.3f");
+  printTable("Mean rotation error [deg] by initial rotation error", rows, methods, 2.0, 90,
+             "deg", by_rotation, mean_of(&Row::rotation_error), " %10.3f");
+  printTable("Median runtime [s] by initial translation error", rows, methods, 1.0, 40, "m",
+             by_translation, median_seconds, " %10.3f");
+  char title[128];
+  std::snprintf(title, sizeof(title),
+                "Success rate [%%] (< %.2f m and < %.2f deg) by initial translation error",
+                bound[0], bound[1]);
+  printTable(title, rows, methods, 1.0, 40, "m", by_translation, success_rate, " %10.1f");
+
+  const int name_width = methodColumnWidth(methods);
+  std::printf("\n%-*s %6s %9s %9s %9s %9s %10s %10s %8s\n", name_width, "method", "rows",
+              "success", "mean_t", "mean_r", "max_t", "median_s", "mean_evals", "vs_first");
+  double first_time = NAN;
+  for (const auto& m : methods) {
+    std::vector<double> t, r, s, ev;
+    int ok = 0;
+    for (const auto& row : rows) {
+      if (row.method != m)
+        continue;
+      t.push_back(row.translation_error);
+      r.push_back(row.rotation_error);
+      s.push_back(row.seconds);
+      ev.push_back(row.evaluations);
+      ok += succeeded(row, bound);
+    }
+    if (t.empty())
+      continue;
+    if (std::isnan(first_time))
+      first_time = median(s);
+    std::printf("%-*s %6zu %8.1f%% %9.3f %9.3f %9.3f %10.3f %10.1f %7.1fx\n", name_width, m.c_str(),
+                t.size(), 100.0 * ok / t.size(), mean(t), mean(r),
+                *std::max_element(t.begin(), t.end()), median(s), mean(ev),
+                median(s) / first_time);
+  }
+  std::printf("(errors in m and deg; vs_first: median time relative to %s)\n",
+              methods.front().c_str());
+  printBias(rows, methods, bound);
+}
+
+} // namespace compare
+} // namespace pcl_mi
