@@ -51,7 +51,7 @@ downsampled(const Cloud::Ptr& cloud, float leaf)
 
 } // namespace
 
-/** Settings that use no knowledge of the true pose; see the README's comparison notes. */
+/** Settings that use no knowledge of the true pose; docs/apps.md gives each one's settings and why. */
 std::unique_ptr<pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>>
 makeMethod(const std::string& name, const MiArguments& mi_arguments)
 {

@@ -82,10 +82,9 @@ makeLocalCloud(const PointList& points, double outlier_gap)
   // of points are worth 12 bytes a point.
   LocalCloud cloud;
   PointList& kept = cloud.points;
-  // Many drivers write a beam without a return as (0, 0, 0) rather than NaN (fast_gicp's
-  // sample scans hold 5000 of them, 7 % of the points). Piled into the voxel at the sensor,
-  // they make a feature that agrees wherever the two sensors' piles meet: on that pair a
-  // scan turned by 180 deg had three times the MI of the true alignment.
+  // Many drivers write a beam without a return as (0, 0, 0) rather than NaN. Piled into the
+  // voxel at the sensor, they make a feature that agrees wherever the two sensors' piles
+  // meet, which outscores the true alignment (docs/method.md).
   const auto usable = [](const Eigen::Vector3f& p) {
     return p.allFinite() && !(p.x() == 0.0f && p.y() == 0.0f && p.z() == 0.0f);
   };
@@ -142,10 +141,8 @@ azimuthCoverageDegrees(const PointList& points)
     ++count[static_cast<std::size_t>(std::clamp(static_cast<int>(sector), 0, kSectors - 1))];
     ++looked;
   }
-  // 5 % of an even share: the emptiest sectors of KITTI's 360-degree scans hold 13 times
-  // that, a cut-off sector's stray returns far fewer. A spinning scan with gaps still covers
-  // far more than the 180 degrees that make a view narrow (KITTI thinned to 16 rings: at
-  // least 325).
+  // A small share of an even split: well below the emptiest sectors of a spinning scan,
+  // well above a cut-off sector's stray returns (docs/method.md).
   const double threshold = 0.05 * static_cast<double>(looked) / kSectors;
   int covered = 0;
   for (const std::size_t c : count)

@@ -68,8 +68,8 @@ extrapolation(const Eigen::Matrix<double, 6, 1>& step, const Eigen::Matrix<doubl
 /** A cube whose points spread across their main direction less than this fraction of the
  * spread along it (ratio of the two larger principal standard deviations) is a strip: one or
  * two scan lines of a sparse scanner, whose fitted plane follows the laser's cone and the
- * lines' calibration offsets rather than the surface. Measured on KITTI scans thinned to 16
- * rings: it halves the pull of roll and pitch towards zero relative motion. */
+ * lines' calibration offsets rather than the surface, and pulls roll and pitch towards zero
+ * relative motion. */
 constexpr double kStripSpreadRatio = 0.5;
 
 /** Principal variances (ascending) and axes of \a c, in double: closed form, cheap enough for
