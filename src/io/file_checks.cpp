@@ -54,6 +54,18 @@ readBoundedLine(std::istream& in, std::string& line, bool& too_long, std::size_t
   return any;
 }
 
+std::string
+openRegularFile(const std::string& path, std::ifstream& in, std::uint64_t* bytes)
+{
+  const std::string not_regular = checkRegularFile(path, bytes);
+  if (!not_regular.empty())
+    return not_regular;
+  in.open(path, std::ios::binary);
+  if (!in)
+    return "cannot open '" + path + "'";
+  return {};
+}
+
 } // namespace detail
 } // namespace io
 } // namespace pcl_mi

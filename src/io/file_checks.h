@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <istream>
+#include <fstream>
 #include <string>
 
 namespace pcl_mi {
@@ -22,6 +23,10 @@ constexpr std::size_t kMaxHeaderLineBytes = 1 << 16;
  * ends. On success \a bytes is the file's size. */
 std::string
 checkRegularFile(const std::string& path, std::uint64_t* bytes = nullptr);
+
+/** checkRegularFile(), then opens \a path (binary) into \a in: empty, or the reason. */
+std::string
+openRegularFile(const std::string& path, std::ifstream& in, std::uint64_t* bytes = nullptr);
 
 /** Reads one line into \a line without its line break (and a trailing '\r'). False at the
  * end of the input or when the line is longer than \a max_bytes (then \a too_long is set). */

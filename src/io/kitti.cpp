@@ -36,12 +36,10 @@ parseTwelve(const std::string& text, Eigen::Matrix4d& m)
 std::string
 loadCalibrationTr(const std::string& calib_path, Eigen::Matrix4d& tr)
 {
-  const std::string not_regular = io::detail::checkRegularFile(calib_path);
-  if (!not_regular.empty())
-    return not_regular;
-  std::ifstream in(calib_path);
-  if (!in)
-    return "cannot open '" + calib_path + "'";
+  std::ifstream in;
+  const std::string not_opened = io::detail::openRegularFile(calib_path, in);
+  if (!not_opened.empty())
+    return not_opened;
   std::string line;
   while (std::getline(in, line)) {
     if (line.rfind("Tr:", 0) != 0)
@@ -56,12 +54,10 @@ loadCalibrationTr(const std::string& calib_path, Eigen::Matrix4d& tr)
 std::string
 loadPoses(const std::string& poses_path, std::vector<Eigen::Matrix4d>& poses)
 {
-  const std::string not_regular = io::detail::checkRegularFile(poses_path);
-  if (!not_regular.empty())
-    return not_regular;
-  std::ifstream in(poses_path);
-  if (!in)
-    return "cannot open '" + poses_path + "'";
+  std::ifstream in;
+  const std::string not_opened = io::detail::openRegularFile(poses_path, in);
+  if (!not_opened.empty())
+    return not_opened;
   poses.clear();
   std::string line;
   int number = 0;
@@ -108,12 +104,10 @@ readScan(const std::string& path,
          const std::function<void(std::size_t, const float*)>& point)
 {
   std::uint64_t size = 0;
-  const std::string not_regular = io::detail::checkRegularFile(path, &size);
-  if (!not_regular.empty())
-    return not_regular;
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    return "cannot open '" + path + "'";
+  std::ifstream in;
+  const std::string not_opened = io::detail::openRegularFile(path, in, &size);
+  if (!not_opened.empty())
+    return not_opened;
   constexpr std::uint64_t kPointBytes = 4 * sizeof(float);
   if (size == 0 || size % kPointBytes != 0) {
     std::ostringstream s;

@@ -426,12 +426,10 @@ std::string
 readPcd(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
 {
   std::uint64_t file_bytes = 0;
-  std::string error = checkRegularFile(path, &file_bytes);
+  std::ifstream in;
+  std::string error = openRegularFile(path, in, &file_bytes);
   if (!error.empty())
     return error;
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    return "cannot open '" + path + "'";
   PcdHeader h;
   error = parsePcdHeader(path, file_bytes, in, h);
   if (!error.empty())
