@@ -15,7 +15,7 @@ flags=(-std=c++17 -O3 -DNDEBUG -DPCL_MI_WITH_OPENCL=1 -Iinclude -Isrc -I. $eigen
 objs=()
 pids=()
 for src in src/engine/*.cpp src/search/*.cpp src/refine/*.cpp src/features/*.cpp \
-           src/backend/backend_factory.cpp src/backend/cpu_backend.cpp \
+           src/backend/cpu_backend.cpp \
            src/backend/opencl_*.cpp src/io/kitti.cpp src/io/file_checks.cpp \
            apps/pcl_mi_backend_bench.cpp \
            "$out/joint_histogram_kernel.cpp"; do

@@ -4,7 +4,6 @@
  */
 #pragma once
 
-#include <pcl_mi/parameters.h>
 #include <pcl_mi/registration_core.h>
 
 #include <pcl/registration/registration.h>
@@ -41,11 +40,8 @@ namespace pcl {
  * (setMaximumIterations()) or any failure leaves it false. Failures are reported with
  * PCL_ERROR and getLastError(); no exception leaves align().
  *
- * Points with non-finite coordinates are skipped, and so are points at exactly (0, 0, 0)
- * in the cloud's own frame: many drivers write a beam without a return there instead of
- * NaN. Far outliers are dropped: along each axis, points outside the largest group of
- * coordinates, where groups are parted by empty gaps of 64 voxels or more
- * (docs/hardening.md); a loss of more than 1 % of a cloud is warned about.
+ * Non-finite points, points at exactly (0, 0, 0) (many drivers' "no return") and far
+ * outliers are skipped (docs/hardening.md).
  *
  * \note Not thread-safe; use one object per thread.
  */

@@ -7,7 +7,7 @@
  */
 #pragma once
 
-#include "backend/backend_factory.h"
+#include "engine/backend_factory.h"
 #include "features/source_samples.h"
 #include "features/voxel_grid.h"
 #include "refine/refinement.h"
@@ -108,7 +108,7 @@ public:
   std::vector<std::string>
   warnings() const;
 
-  const backend::BackendFactory&
+  const BackendFactory&
   backends() const
   {
     return backends_;
@@ -146,7 +146,7 @@ private:
   /** The source's samples per level (finest first), built with the source. */
   std::vector<std::shared_ptr<const SourceSamples>> source_levels_;
   std::unique_ptr<TargetDistributions> distributions_;
-  backend::BackendFactory backends_;
+  BackendFactory backends_;
 };
 
 } // namespace core

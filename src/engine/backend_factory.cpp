@@ -1,14 +1,14 @@
 /*
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "backend/backend_factory.h"
+#include "engine/backend_factory.h"
 
 #ifdef PCL_MI_WITH_OPENCL
 #include "backend/opencl_backend.h"
 #endif
 
 namespace pcl_mi {
-namespace backend {
+namespace core {
 
 bool
 BackendFactory::choose(const BackendParameters& backend,
@@ -33,12 +33,12 @@ BackendFactory::choose(const BackendParameters& backend,
   // through to openClDevice(), whose error becomes the warning.
   std::string no_device;
   if (backend.type == Backend::Auto &&
-      !openClDeviceIsOffload(backend.opencl_platform, backend.opencl_device, no_device) &&
+      !backend::openClDeviceIsOffload(backend.opencl_platform, backend.opencl_device, no_device) &&
       no_device.empty())
     return true;
-  device_ = openClDevice(backend.opencl_platform, backend.opencl_device, why);
+  device_ = backend::openClDevice(backend.opencl_platform, backend.opencl_device, why);
   if (device_) {
-    name_ = "opencl (" + openClDeviceName(*device_) + ")";
+    name_ = "opencl (" + backend::openClDeviceName(*device_) + ")";
     return true;
   }
 #else
@@ -53,15 +53,15 @@ BackendFactory::choose(const BackendParameters& backend,
   return true;
 }
 
-std::unique_ptr<ScoringBackend>
+std::unique_ptr<backend::ScoringBackend>
 BackendFactory::make() const
 {
 #ifdef PCL_MI_WITH_OPENCL
   if (device_)
-    return makeOpenClBackend(device_, profile_device_);
+    return backend::makeOpenClBackend(device_, profile_device_);
 #endif
-  return makeCpuBackend();
+  return backend::makeCpuBackend();
 }
 
-} // namespace backend
+} // namespace core
 } // namespace pcl_mi

@@ -1,5 +1,6 @@
 /*
- * pcl_mi: which scoring backend the parameters ask for, and making one.
+ * pcl_mi: which scoring backend the parameters ask for, and making one: the engine's
+ * reading of BackendParameters (the backends themselves know no parameters).
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #pragma once
@@ -13,8 +14,10 @@
 
 namespace pcl_mi {
 namespace backend {
-
 struct OpenClDevice;
+} // namespace backend
+
+namespace core {
 
 /** \brief Makes the backends of one target: the CPU, or the OpenCL device chosen once. */
 class BackendFactory {
@@ -26,7 +29,7 @@ public:
   choose(const BackendParameters& backend, const SamplingParameters& sampling, std::string& error);
 
   /** \brief A new backend of the chosen kind. */
-  std::unique_ptr<ScoringBackend>
+  std::unique_ptr<backend::ScoringBackend>
   make() const;
 
   /** \brief "cpu" or "opencl (device name)". */
@@ -44,11 +47,11 @@ public:
   }
 
 private:
-  std::shared_ptr<OpenClDevice> device_; // null: the CPU
+  std::shared_ptr<backend::OpenClDevice> device_; // null: the CPU
   bool profile_device_ = false;
   std::string name_ = "cpu";
   std::string warning_;
 };
 
-} // namespace backend
+} // namespace core
 } // namespace pcl_mi
