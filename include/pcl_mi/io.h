@@ -9,20 +9,80 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace pcl_mi {
 namespace io {
 
-/** \brief Loads a scan by extension: .pcd, .ply, or KITTI Velodyne .bin (little-endian
+/** \brief A scan as the readers hand it over: x, y, z, intensity per point in plain
+ * floats. No Eigen-aligned allocation crosses the library boundary, so code compiled with
+ * other alignment flags than the library (e.g. -march=native) can use the readers: the
+ * inline loadCloud() builds the pcl::PointCloud in the caller's own code. */
+struct ScanPoints {
+  std::vector<float> xyzi;            ///< 4 floats per point
+  std::uint32_t width = 0, height = 0; ///< organisation, as the file gives it
+  bool is_dense = false;               ///< every point finite
+
+  std::size_t
+  size() const
+  {
+    return xyzi.size() / 4;
+  }
+};
+
+/** \brief Reads a scan by extension: .pcd, .ply, or KITTI Velodyne .bin (little-endian
  * float32 x, y, z, reflectance per point). Returns an empty string on success, else a
  * one-line reason (missing file, wrong size, no x/y/z fields, no points...). */
 std::string
-loadCloud(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud);
+readScan(const std::string& path, ScanPoints& points);
 
-/** \brief Reads a KITTI Velodyne .bin scan. Same contract as loadCloud(). */
+/** \brief Reads a KITTI Velodyne .bin scan. Same contract as readScan(). */
 std::string
-loadKittiBin(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud);
+readKittiBin(const std::string& path, ScanPoints& points);
+
+/** \brief \a points as a cloud. */
+inline void
+toCloud(const ScanPoints& points, pcl::PointCloud<pcl::PointXYZI>& cloud)
+{
+  cloud.clear();
+  cloud.resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    pcl::PointXYZI& p = cloud[i];
+    p.x = points.xyzi[4 * i];
+    p.y = points.xyzi[4 * i + 1];
+    p.z = points.xyzi[4 * i + 2];
+    p.intensity = points.xyzi[4 * i + 3];
+  }
+  cloud.width = points.width;
+  cloud.height = points.height;
+  cloud.is_dense = points.is_dense;
+}
+
+/** \brief Loads a scan (see readScan()) into \a cloud; on failure \a cloud is empty. */
+inline std::string
+loadCloud(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
+{
+  ScanPoints points;
+  const std::string error = readScan(path, points);
+  cloud.clear();
+  if (error.empty())
+    toCloud(points, cloud);
+  return error;
+}
+
+/** \brief Loads a KITTI Velodyne .bin scan (see readKittiBin()). */
+inline std::string
+loadKittiBin(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
+{
+  ScanPoints points;
+  const std::string error = readKittiBin(path, points);
+  cloud.clear();
+  if (error.empty())
+    toCloud(points, cloud);
+  return error;
+}
 
 /** \brief Reads a rigid transformation from text: 16 numbers (4x4, row-major) or 12
  * (the top 3x4 rows, KITTI style), separated by white space or commas. */

@@ -98,21 +98,19 @@ public:
    * stores its value like PCL's (the getters return it) and warns once per object, naming
    * what to use instead (README, "Migrating from GICP/NDT"). */
   ///@{
-  /** \brief Not used: the scale is setResolution()'s; warns once. */
+  /** \brief Not used: the scale is setResolution()'s. */
   void
   setMaxCorrespondenceDistance(double distance_threshold);
-  /** \brief Not used: convergence is setTranslationTolerance() and setRotationTolerance();
-   * warns once. */
+  /** \brief Not used: see setTranslationTolerance() and setRotationTolerance(). */
   void
   setTransformationEpsilon(double epsilon);
-  /** \brief Not used: convergence is setTranslationTolerance() and setRotationTolerance();
-   * warns once. */
+  /** \brief Not used: see setTranslationTolerance() and setRotationTolerance(). */
   void
   setEuclideanFitnessEpsilon(double epsilon);
-  /** \brief Not used: there are no correspondences to reject; warns once. */
+  /** \brief Not used: there are no correspondences to reject. */
   void
   setRANSACOutlierRejectionThreshold(double inlier_threshold);
-  /** \brief Not used: there are no correspondences to reject; warns once. */
+  /** \brief Not used: there are no correspondences to reject. */
   void
   setRANSACIterations(int ransac_iterations);
   ///@}
@@ -476,9 +474,7 @@ private:
     std::size_t size = 0;
     bool
     operator==(const ConvertedSource& o) const
-    {
-      return cloud == o.cloud && indices == o.indices && size == o.size && cloud;
-    }
+    { return cloud == o.cloud && indices == o.indices && size == o.size && cloud; }
   };
 
   pcl_mi::RegistrationCore core_;
@@ -493,7 +489,12 @@ private:
 #include <pcl_mi/impl/mutual_information_registration.hpp>
 
 #ifndef PCL_MI_NO_PRECOMPILE
+#include <pcl_mi/build_config.h>
+// The precompiled instantiations serve only code with the library's Eigen alignment; with
+// other flags (e.g. -march=native) the layout differs and the templates compile here.
+#if EIGEN_MAX_STATIC_ALIGN_BYTES == PCL_MI_EIGEN_MAX_STATIC_ALIGN_BYTES
 #include <pcl/point_types.h>
 extern template class pcl::MutualInformationRegistration<pcl::PointXYZ>;
 extern template class pcl::MutualInformationRegistration<pcl::PointXYZI>;
+#endif
 #endif

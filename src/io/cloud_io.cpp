@@ -41,38 +41,35 @@ lowerExtension(const std::string& path)
 } // namespace
 
 std::string
-loadKittiBin(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
+readKittiBin(const std::string& path, ScanPoints& points)
 {
   bool dense = true;
   const std::string error = kitti::readScan(
-      path, [&](std::size_t n) { cloud.clear(); cloud.resize(n); },
+      path, [&](std::size_t n) { points.xyzi.assign(4 * n, 0.0f); },
       [&](std::size_t i, const float* xyzr) {
-        auto& p = cloud[i];
-        p.x = xyzr[0];
-        p.y = xyzr[1];
-        p.z = xyzr[2];
-        p.intensity = xyzr[3];
-        dense = dense && std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+        std::copy(xyzr, xyzr + 4, &points.xyzi[4 * i]);
+        dense = dense && std::isfinite(xyzr[0]) && std::isfinite(xyzr[1]) &&
+                std::isfinite(xyzr[2]);
       });
   if (!error.empty())
     return error;
-  cloud.width = static_cast<std::uint32_t>(cloud.size());
-  cloud.height = 1;
-  cloud.is_dense = dense;
+  points.width = static_cast<std::uint32_t>(points.size());
+  points.height = 1;
+  points.is_dense = dense;
   return {};
 }
 
 std::string
-loadCloud(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
+readScan(const std::string& path, ScanPoints& points)
 {
   const std::string ext = lowerExtension(path);
   if (ext != "bin" && ext != "pcd" && ext != "ply")
     return "'" + path + "': unknown format (expected .pcd, .ply or KITTI .bin)";
   std::string error;
   try {
-    error = ext == "bin" ? loadKittiBin(path, cloud)
-            : ext == "pcd" ? detail::readPcd(path, cloud)
-                           : detail::readPly(path, cloud);
+    error = ext == "bin" ? readKittiBin(path, points)
+            : ext == "pcd" ? detail::readPcd(path, points)
+                           : detail::readPly(path, points);
   }
   catch (const std::bad_alloc&) {
     error = "not enough memory to load '" + path + "'";
@@ -81,10 +78,10 @@ loadCloud(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
     error = "not enough memory to load '" + path + "'";
   }
   if (!error.empty()) {
-    cloud.clear();
+    points = ScanPoints();
     return error;
   }
-  if (cloud.empty())
+  if (points.size() == 0)
     return "'" + path + "' has no points";
   return {};
 }

@@ -116,7 +116,7 @@ fieldSize(std::uint8_t datatype)
 std::string
 convertBlob(const pcl::PCLPointCloud2& blob,
             const std::string& path,
-            pcl::PointCloud<pcl::PointXYZI>& cloud)
+            ScanPoints& cloud)
 {
   const pcl::PCLPointField* fields[4] = {nullptr, nullptr, nullptr, nullptr};
   static const char* const kNames[4] = {"x", "y", "z", "intensity"};
@@ -138,20 +138,17 @@ convertBlob(const pcl::PCLPointCloud2& blob,
   if (blob.row_step < std::uint64_t{blob.width} * blob.point_step ||
       blob.data.size() < std::uint64_t{blob.row_step} * blob.height)
     return "'" + path + "' is truncated: its header announces more points than it holds";
-  cloud.clear();
-  cloud.resize(static_cast<std::size_t>(n));
+  cloud.xyzi.assign(4 * static_cast<std::size_t>(n), 0.0f);
   cloud.width = blob.width;
   cloud.height = blob.height;
   cloud.is_dense = false;
   for (std::size_t row = 0, i = 0; row < blob.height; ++row)
     for (std::size_t col = 0; col < blob.width; ++col, ++i) {
       const std::uint8_t* point = blob.data.data() + row * blob.row_step + col * blob.point_step;
-      pcl::PointXYZI& p = cloud[i];
-      p.x = toFloat(fieldValue(point + fields[0]->offset, fields[0]->datatype));
-      p.y = toFloat(fieldValue(point + fields[1]->offset, fields[1]->datatype));
-      p.z = toFloat(fieldValue(point + fields[2]->offset, fields[2]->datatype));
-      p.intensity =
-          fields[3] ? toFloat(fieldValue(point + fields[3]->offset, fields[3]->datatype)) : 0.0f;
+      float* p = &cloud.xyzi[4 * i];
+      for (int k = 0; k < 4; ++k)
+        p[k] = fields[k] ? toFloat(fieldValue(point + fields[k]->offset, fields[k]->datatype))
+                         : 0.0f;
     }
   return {};
 }
@@ -423,7 +420,7 @@ readCompressedData(const std::string& path, const PcdHeader& h, std::ifstream& i
 } // namespace
 
 std::string
-readPcd(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
+readPcd(const std::string& path, ScanPoints& cloud)
 {
   std::uint64_t file_bytes = 0;
   std::ifstream in;

@@ -246,7 +246,7 @@ private:
 } // namespace
 
 std::string
-readPly(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
+readPly(const std::string& path, ScanPoints& cloud)
 {
   std::uint64_t file_bytes = 0;
   std::ifstream in;
@@ -302,8 +302,7 @@ readPly(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
         if (p.list ? !readList(p) : !values.next(p.type, ignored))
           return truncated;
       }
-  cloud.clear();
-  cloud.resize(static_cast<std::size_t>(vertex->count));
+  cloud.xyzi.assign(4 * static_cast<std::size_t>(vertex->count), 0.0f);
   cloud.width = static_cast<std::uint32_t>(vertex->count);
   cloud.height = 1;
   cloud.is_dense = false;
@@ -318,11 +317,7 @@ readPly(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
         if (axis[a] == static_cast<int>(k))
           xyzi[a] = toFloat(v);
     }
-    pcl::PointXYZI& point = cloud[static_cast<std::size_t>(i)];
-    point.x = xyzi[0];
-    point.y = xyzi[1];
-    point.z = xyzi[2];
-    point.intensity = xyzi[3];
+    std::copy(xyzi, xyzi + 4, &cloud.xyzi[4 * static_cast<std::size_t>(i)]);
   }
   return {};
 }

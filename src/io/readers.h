@@ -4,8 +4,7 @@
  */
 #pragma once
 
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
+#include <pcl_mi/io.h>
 
 #include <string>
 
@@ -17,12 +16,12 @@ namespace detail {
  * Every size the header announces is checked in 64-bit arithmetic against the file's own
  * size before anything is allocated. Empty on success, else a one-line reason. */
 std::string
-readPcd(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud);
+readPcd(const std::string& path, ScanPoints& cloud);
 
 /** Reads the vertex element of a PLY file (ascii or binary of either byte order; list
  * properties and other elements are skipped). Same checks and contract as readPcd(). */
 std::string
-readPly(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud);
+readPly(const std::string& path, ScanPoints& cloud);
 
 /** \a v as float, beyond float's range as +-infinity (a plain conversion is undefined). */
 float
