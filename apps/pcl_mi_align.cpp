@@ -51,6 +51,7 @@ printHelp(const char* program)
       "  -aligned FILE         aligned source cloud (default aligned.pcd)\n"
       "  -merged FILE          target (grey) + aligned source (red) as XYZRGB for\n"
       "                        pcl_viewer (default merged.pcd)\n"
+      "  -no_output            write no clouds (the transform still goes to -transform)\n"
       "  -view                 show before (guess) and after side by side in a PCL viewer\n"
       "  -screenshot FILE.png  save that side-by-side view as an image (works under Xvfb:\n"
       "                        xvfb-run -a pcl_mi_align ... -screenshot view.png)\n"
@@ -149,7 +150,8 @@ run(int argc, char** argv)
           {{"-guess", OptionValue::Numbers}, {"-guess_file", OptionValue::Text},
            {"-reference", OptionValue::Text}, {"-transform", OptionValue::Text},
            {"-aligned", OptionValue::Text}, {"-merged", OptionValue::Text},
-           {"-view", OptionValue::None}, {"-screenshot", OptionValue::Text}},
+           {"-view", OptionValue::None}, {"-screenshot", OptionValue::Text},
+           {"-no_output", OptionValue::None}},
           pcl_mi::apps::miOptionTable(pcl_mi::apps::MiOptionSet::All)));
   if (!bad_option.empty()) {
     print_error("pcl_mi_align: %s\n", bad_option.c_str());
@@ -232,8 +234,8 @@ run(int argc, char** argv)
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  if (!reg.getLastError().empty()) {
-    print_error("pcl_mi_align: alignment failed: %s\n", reg.getLastError().c_str());
+  if (!reg.getLastResult().error.empty()) {
+    print_error("pcl_mi_align: alignment failed: %s\n", reg.getLastResult().error.c_str());
     return 2;
   }
   const Eigen::Matrix4d result = reg.getFinalTransformation().cast<double>();
@@ -297,6 +299,11 @@ run(int argc, char** argv)
   registration.reset();
   if (!show)
     source.reset();
+  if (pcl::console::find_switch(argc, argv, "-no_output") && !show) {
+    if (!transform_path.empty())
+      print_info("Wrote %s\n", transform_path.c_str());
+    return converged ? 0 : 3;
+  }
   // PCL's writer throws pcl::IOException on a path it cannot open.
   bool written = false;
   try {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The apps' exception boundary and input checks (docs/hardening.md, classes 3 and 8): every
 # failure is one line on stderr and a non-zero exit code below 128 (no signal, no
-# "terminate called"), also when the result was computed and only writing it fails.
+# "terminate called"), also when the result was computed and only writing it fails; and
+# -no_output writes no clouds.
 # Usage: run_app_hardening_test.sh PCL_MI_ALIGN DATA_DIR WORK_DIR
 set -u
 app=$1 data=$2 work=$3
@@ -47,5 +48,17 @@ expect_failure fifo_input "not a regular file" \
 # A directory as output.
 expect_failure directory_output "cannot write" \
   "$app" "$source_scan" "$target_scan" -aligned "$work" -merged "$work/m.pcd"
+
+# -no_output: the result and -transform, but no clouds in the working directory.
+mkdir -p "$work/no_output"
+(cd "$work/no_output" && timeout 120 "$app" "$source_scan" "$target_scan" -no_output \
+   -transform t.txt > out.txt 2>&1)
+rc=$?
+if [ "$rc" -ne 0 ] || [ -e "$work/no_output/aligned.pcd" ] || [ -e "$work/no_output/merged.pcd" ] ||
+   [ ! -s "$work/no_output/t.txt" ]; then
+  echo "FAIL no_output: exit $rc; files: $(ls "$work/no_output")"; failures=$((failures + 1))
+else
+  echo "ok   no_output (exit 0): $(ls "$work/no_output" | tr '\n' ' ')"
+fi
 
 [ "$failures" -eq 0 ] && echo "all app hardening checks passed" || exit 1

@@ -388,11 +388,13 @@ public:
     return result_;
   }
 
-  /** \brief Why the last align() failed; empty after a successful one. */
+  /** \brief Why the last align() failed (the final transformation is the guess) or did
+   * not converge (the iteration cap ended the search; the final transformation is the best
+   * found); empty after a converged one. getLastResult().error holds failures only. */
   const std::string&
   getLastError() const
   {
-    return result_.error;
+    return last_error_;
   }
 
   /** \brief Mutual information (nats) of source and target at \a pose (source to target),
@@ -479,6 +481,7 @@ private:
 
   pcl_mi::RegistrationCore core_;
   pcl_mi::AlignmentResult result_;
+  std::string last_error_; // see getLastError()
   std::string warned_; // the backend warning already printed
   std::vector<std::string> warned_setters_; // inherited setters already warned about
   ConvertedSource converted_source_;

@@ -234,6 +234,7 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::align(
   converged_ = false;
   nr_iterations_ = 0;
   result_ = pcl_mi::AlignmentResult();
+  last_error_.clear();
   result_.transformation = guess.template cast<double>();
   final_transformation_ = transformation_ = previous_transformation_ = guess;
   const std::string refused = inputError();
@@ -241,7 +242,7 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::align(
     Base::align(output, guess);
     return;
   }
-  result_.error = refused;
+  result_.error = last_error_ = refused;
   PCL_ERROR("[pcl::%s::align] %s.\n", getClassName().c_str(), refused.c_str());
   output.clear();
 }
@@ -439,6 +440,15 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
     converged_ = result_.converged;
     nr_iterations_ = result_.iterations;
   }
+  if (!result_.error.empty())
+    last_error_ = result_.error;
+  else if (!converged_)
+    last_error_ = "not converged: the iteration cap (setMaximumIterations(" +
+                  std::to_string(max_iterations_) +
+                  ")) ended the search before the simplex met its tolerances; the final "
+                  "transformation is the best one found";
+  else
+    last_error_.clear();
   transformation_ = final_transformation_;
   previous_transformation_ = final_transformation_;
   // Like every PCL registration: output is the source under the final transformation.
