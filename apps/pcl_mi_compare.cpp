@@ -30,6 +30,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -58,7 +59,8 @@ printHelp(const char* program)
       "  -list FILE            instead of KITTI: rows 'SOURCE TARGET' + 12 or 16 numbers\n"
       "                        (reference source-to-target 4x4, row-major); paths relative\n"
       "                        to FILE; every row also runs backwards (swapped, inverse)\n"
-      "  -sequences 00,02      sequences (default: 00,01,02,05,08)\n"
+      "  -sequences 00,02      sequences (default: every one under DIR/sequences with a\n"
+      "                        calib.txt; frames without a scan are left out)\n"
       "  -frames N             frames 0..N-1 of each sequence (default 10)\n"
       "  -poses semantic|gt|auto   reference poses: sequences/SS/poses.txt (SemanticKITTI),\n"
       "                        poses/SS.txt (KITTI GPS/INS), or auto: the first where it\n"
@@ -109,6 +111,8 @@ struct Options {
   std::vector<double> distance{1.0, 10.0}, perturb, success{0.5, 2.0};
   std::vector<std::string> methods;
   std::map<std::tuple<std::string, int, int>, bool> wanted_pairs;
+  bool sequences_given = false; ///< else: every sequence the root holds
+  bool methods_given = false;   ///< else with -merge: every method in the files
 };
 
 /** Reads the options after checkOptions(); false (having said why) on a bad value. */
@@ -176,7 +180,22 @@ parseOptions(int argc, char** argv, const MiArguments& mi, Options& o)
   }
 
   pcl::console::parse_argument(argc, argv, "-list", o.list_path);
+  o.sequences_given = pcl_mi::apps::optionValue(argc, argv, "-sequences") != nullptr;
+  o.methods_given = pcl_mi::apps::optionValue(argc, argv, "-methods") != nullptr;
   return true;
+}
+
+/** The sequences under ROOT/sequences that have a calib.txt, in order. */
+std::vector<std::string>
+sequencesUnder(const std::string& root)
+{
+  std::vector<std::string> found;
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(root + "/sequences", error))
+    if (entry.is_directory() && std::filesystem::exists(entry.path() / "calib.txt"))
+      found.push_back(entry.path().filename().string());
+  std::sort(found.begin(), found.end());
+  return found;
 }
 
 /** -merge: combines shards' CSVs (the files after -merge) and prints the tables. */
@@ -201,10 +220,18 @@ merge(int argc, char** argv, int merge_at, const Options& o)
     for (const auto& r : rows)
       writeRow(csv, r);
   }
+  // Every method in the files, in order of appearance, unless -methods picks some.
   std::vector<std::string> present;
-  for (const auto& m : o.methods)
-    if (std::any_of(rows.begin(), rows.end(), [&](const Row& r) { return r.method == m; }))
-      present.push_back(m);
+  if (o.methods_given) {
+    for (const auto& m : o.methods)
+      if (std::any_of(rows.begin(), rows.end(), [&](const Row& r) { return r.method == m; }))
+        present.push_back(m);
+  }
+  else {
+    for (const Row& r : rows)
+      if (std::find(present.begin(), present.end(), r.method) == present.end())
+        present.push_back(r.method);
+  }
   if (present.empty()) {
     print_error("pcl_mi_compare: the rows hold none of the methods %s\n", o.methods_arg.c_str());
     return 1;
@@ -230,7 +257,14 @@ forwardPairs(const Options& o, std::vector<Pair>& forward_pairs)
       print_error("pcl_mi_compare: -kitti DIR or -list FILE is required (see -h)\n");
       return false;
     }
-    for (const auto& seq : split(o.sequences, ',')) {
+    const std::vector<std::string> sequences =
+        o.sequences_given ? split(o.sequences, ',') : sequencesUnder(o.root);
+    if (sequences.empty()) {
+      print_error("pcl_mi_compare: no sequence with a calib.txt under '%s/sequences'\n",
+                  o.root.c_str());
+      return false;
+    }
+    for (const auto& seq : sequences) {
       Eigen::Matrix4d tr;
       std::vector<Eigen::Matrix4d> poses;
       std::string error =
@@ -247,8 +281,22 @@ forwardPairs(const Options& o, std::vector<Pair>& forward_pairs)
         return false;
       }
       const int n = std::min<int>(o.frames, static_cast<int>(poses.size()));
+      // Without -pairs, frames without a scan are left out (a sample of a sequence).
+      std::vector<bool> has_scan(static_cast<std::size_t>(n), true);
+      int scans = n;
+      if (o.wanted_pairs.empty())
+        for (int k = 0; k < n; ++k)
+          if (!std::filesystem::exists(pcl_mi::kitti::scanPath(o.root, seq, k))) {
+            has_scan[static_cast<std::size_t>(k)] = false;
+            --scans;
+          }
+      if (scans < n)
+        print_info("pcl_mi_compare: sequence %s: %d of frames 0-%d have a scan\n", seq.c_str(),
+                   scans, n - 1);
       for (int i = 0; i < n; ++i)
         for (int j = i + 1; j < n; ++j) {
+          if (!has_scan[static_cast<std::size_t>(i)] || !has_scan[static_cast<std::size_t>(j)])
+            continue;
           const Eigen::Matrix4d t_ij =
               pcl_mi::kitti::relativeVelodyneTransform(tr, poses[i], poses[j]);
           const double dist = t_ij.topRightCorner<3, 1>().norm();
