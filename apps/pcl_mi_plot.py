@@ -15,7 +15,11 @@ import csv
 import math
 import sys
 
-import matplotlib
+try:
+    import matplotlib
+except ImportError:
+    sys.exit("pcl_mi_plot.py needs matplotlib: apt-get install python3-matplotlib (Debian's /usr/bin/python3, "
+             "which this script's first line names, has it after scripts/setup_debian.sh)")
 
 matplotlib.use("Agg")  # files only; works without a display
 import matplotlib.pyplot as plt  # noqa: E402

@@ -13,11 +13,19 @@ Needs python3-matplotlib and python3-numpy (Debian).
 import os
 import sys
 
-import matplotlib
+try:
+    import matplotlib
+except ImportError:
+    sys.exit("pcl_mi_plot_cost_surface.py needs matplotlib: apt-get install python3-matplotlib (Debian's /usr/bin/python3, "
+             "which this script's first line names, has it after scripts/setup_debian.sh)")
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+try:
+    import numpy as np
+except ImportError:
+    sys.exit("pcl_mi_plot_cost_surface.py needs numpy: apt-get install python3-numpy (Debian's /usr/bin/python3, "
+             "which this script's first line names, has it after scripts/setup_debian.sh)")
 
 
 def normalise(v):

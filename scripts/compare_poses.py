@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Checks that two pcl_mi_compare CSVs hold the same poses, bit for bit.
 
     scripts/compare_poses.py BEFORE.csv AFTER.csv

@@ -3,7 +3,11 @@ file, shared by the scripts that derive evaluation data from the KITTI odometry 
 import os
 import sys
 
-import numpy as np
+try:
+    import numpy as np
+except ImportError:
+    sys.exit("this KITTI script needs numpy: apt-get install python3-numpy (Debian's /usr/bin/python3, "
+             "which this script's first line names, has it after scripts/setup_debian.sh)")
 
 
 def read_tr(path):

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Emulates a sparser LiDAR from KITTI's 64-beam scans by keeping every K-th ring, and writes
 the scans plus a pair list for `pcl_mi_compare -list`.
 
@@ -26,7 +26,11 @@ import math
 import os
 import sys
 
-import numpy as np
+try:
+    import numpy as np
+except ImportError:
+    sys.exit("kitti_ring_subset.py needs numpy: apt-get install python3-numpy (Debian's /usr/bin/python3, "
+             "which this script's first line names, has it after scripts/setup_debian.sh)")
 
 from kitti_files import list_row, load_sequence, write_pair_list
 

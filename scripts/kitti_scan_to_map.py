@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Writes scan-to-map cases from KITTI: each scan of a sequence against a map of the
 sequence's other stored scans, and a pair list for `pcl_mi_compare -list ... -directions
 forward`.
@@ -17,7 +17,11 @@ import argparse
 import os
 import sys
 
-import numpy as np
+try:
+    import numpy as np
+except ImportError:
+    sys.exit("kitti_scan_to_map.py needs numpy: apt-get install python3-numpy (Debian's /usr/bin/python3, "
+             "which this script's first line names, has it after scripts/setup_debian.sh)")
 
 from kitti_files import list_row, load_sequence, write_pair_list
 

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Bad-input corpus for pcl_mi_align: every file either aligns correctly or fails with one
 clear line and a non-zero exit, within a memory bound. Generated at test time (the large ones
 would bloat the repository).

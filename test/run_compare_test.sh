@@ -12,7 +12,7 @@ args=(-kitti "$data/kitti" -sequences 00,02 -pairs 00:0:9,02:0:6 -methods mi-var
 "$compare" "${args[@]}" -shard 2/2 -csv "$work/shard2.csv"
 "$compare" -merge "$work/shard1.csv" "$work/shard2.csv" -csv "$work/all.csv" | tee "$work/tables.txt"
 grep -q "Mean translation error \[m\] by initial translation error" "$work/tables.txt"
-/usr/bin/python3 "$plot" "$work/all.csv" "$work/plot"
+"$plot" "$work/all.csv" "$work/plot"
 test -s "$work/plot_translation.png" && test -s "$work/plot_rotation.png"
 test -s "$work/plot_bias.png"
 grep -q "^Mean signed translation error of the successful rows" "$work/tables.txt"
@@ -43,7 +43,7 @@ if cmp -s <(cut -d, -f1-4 "$work/shuffled.csv") <(cut -d, -f1-4 "$work/ordered.c
 fi
 
 # reference_check.py on the MI rows: one line per row, then the count.
-/usr/bin/python3 "$reference_check" "$cost_surface" "$data/kitti" "$work/all.csv" mi-varz |
+"$reference_check" "$cost_surface" "$data/kitti" "$work/all.csv" mi-varz |
   tee "$work/check.txt"
 test "$(grep -c 'ward ' "$work/check.txt")" -eq 4
 grep -Eq "^[0-4] of 4 rows: GICP's objective is lower at the estimate" "$work/check.txt"

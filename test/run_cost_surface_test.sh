@@ -26,5 +26,5 @@ awk -F, 'NR == 2 || (NR > 2 && $4 < low) { low = $4; at = $2 }
          END { if (at < -0.3 || at > 0.3) { print "GICP minimum at " at " m"; exit 1 }
                if (!(mi0 > mi1)) { print "MI " mi0 " at the reference, " mi1 " 2 m off"; exit 1 } }' \
   "$work/cs_line.csv"
-/usr/bin/python3 "$plot" "$work/cs"
+"$plot" "$work/cs"
 test -s "$work/cs_xy.png" && test -s "$work/cs_yaw.png" && test -s "$work/cs_line.png"

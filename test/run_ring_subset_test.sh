@@ -8,7 +8,7 @@
 set -euo pipefail
 script=$1 compare=$2 data=$3 work=$4
 rm -rf "$work" && mkdir -p "$work"
-/usr/bin/python3 "$script" "$data/kitti" 2 "$work/rings" --sequences 00,02 | tee "$work/log.txt"
+"$script" "$data/kitti" 2 "$work/rings" --sequences 00,02 | tee "$work/log.txt"
 full=$(stat -c %s "$data/kitti/sequences/00/velodyne/000000.bin")
 half=$(stat -c %s "$work/rings/00_000000.bin")
 awk -v f="$full" -v h="$half" 'BEGIN { r = h / f; print "kept fraction " r; exit !(r > 0.4 && r < 0.6) }'
@@ -18,10 +18,10 @@ grep -q "^00_000009.bin 00_000000.bin " "$work/rings/list.txt"
 awk -F, 'NR > 1 { n++; if ($10 >= 0.15 || $11 >= 0.5) { print "out of bound: " $0; bad++ } }
          END { if (n != 4 || bad) exit 1; print n " alignments within 0.15 m / 0.5 deg" }' "$work/rings.csv"
 # K = 1 keeps every point: the scans are byte-identical to the originals.
-/usr/bin/python3 "$script" "$data/kitti" 1 "$work/all" --sequences 00 > /dev/null
+"$script" "$data/kitti" 1 "$work/all" --sequences 00 > /dev/null
 cmp "$work/all/00_000009.bin" "$data/kitti/sequences/00/velodyne/000009.bin"
 # --scale multiplies the coordinates and the reference translations, nothing else.
-/usr/bin/python3 "$script" "$data/kitti" 1 "$work/mm" --sequences 00 --scale 1000 > /dev/null
+"$script" "$data/kitti" 1 "$work/mm" --sequences 00 --scale 1000 > /dev/null
 /usr/bin/python3 - "$work/all" "$work/mm" <<'PY'
 import sys
 import numpy as np
@@ -35,7 +35,7 @@ assert np.allclose(rb[:, :3], ra[:, :3]) and np.allclose(rb[:, 3], 1000 * ra[:, 
 print("--scale 1000: points and reference translations x1000, rotations unchanged")
 PY
 # --fov keeps the points within half the angle of straight ahead, and all of those.
-/usr/bin/python3 "$script" "$data/kitti" 1 "$work/fov" --sequences 00 --fov 70 > /dev/null
+"$script" "$data/kitti" 1 "$work/fov" --sequences 00 --fov 70 > /dev/null
 /usr/bin/python3 - "$work/all" "$work/fov" <<'PY'
 import sys
 import numpy as np

@@ -7,7 +7,7 @@
 set -euo pipefail
 script=$1 compare=$2 data=$3 work=$4
 rm -rf "$work" && mkdir -p "$work"
-/usr/bin/python3 "$script" "$data/kitti" "$work/map" --sequences 00 --sources 9 | tee "$work/log.txt"
+"$script" "$data/kitti" "$work/map" --sequences 00 --sources 9 | tee "$work/log.txt"
 /usr/bin/python3 - "$data/kitti" "$work/map" <<'PY'
 import sys
 import numpy as np
@@ -21,7 +21,7 @@ reference = np.loadtxt(f"{kitti}/reference_00_000009_to_000000.txt")[:3, :]
 assert np.allclose(np.array(row[2:14], float).reshape(3, 4), reference, atol=1e-6)
 print("map = scan 0, reference = the bundled one")
 PY
-if /usr/bin/python3 "$script" "$data/kitti" "$work/bad" --sequences 00 --sources 5 2> "$work/bad.txt"; then
+if "$script" "$data/kitti" "$work/bad" --sequences 00 --sources 5 2> "$work/bad.txt"; then
   echo "a missing frame was not refused"; exit 1
 fi
 grep -q "has no stored frame 5" "$work/bad.txt"
