@@ -20,6 +20,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <chrono>
 #include <tuple>
 #include <cmath>
@@ -114,7 +115,29 @@ showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
     viewer.addText(std::string(label) + "   grey: target, red: source", 10, 10, 18, 0, 0, 0,
                    "label" + id, viewport);
   }
-  viewer.setCameraPosition(0, 0, 110, 0, 0, 0, 0, 1, 0);
+  // Framed to the target seen from above: its 2-98 % extent in x and y (stray far returns
+  // would shrink the scene to a dot), centred, at the height that fits it in a viewport.
+  std::vector<float> xs, ys;
+  for (const auto& p : *target)
+    if (std::isfinite(p.x) && std::isfinite(p.y)) {
+      xs.push_back(p.x);
+      ys.push_back(p.y);
+    }
+  float centre[2] = {0.0f, 0.0f}, half = 50.0f;
+  if (!xs.empty()) {
+    half = 0.0f;
+    std::vector<float>* axes[2] = {&xs, &ys};
+    for (int a = 0; a < 2; ++a) {
+      std::vector<float>& v = *axes[a];
+      std::sort(v.begin(), v.end());
+      const float lo = v[v.size() / 50], hi = v[v.size() - 1 - v.size() / 50];
+      centre[a] = 0.5f * (lo + hi);
+      half = std::max(half, 0.5f * (hi - lo));
+    }
+  }
+  // VTK's default view angle is 30 degrees; 10 % margin.
+  const double height = 1.1 * half / std::tan(15.0 * M_PI / 180.0) + 1.0;
+  viewer.setCameraPosition(centre[0], centre[1], height, centre[0], centre[1], 0, 0, 1, 0);
   if (!screenshot.empty()) {
     viewer.spinOnce(100);
     viewer.saveScreenshot(screenshot);
@@ -299,26 +322,24 @@ run(int argc, char** argv)
   registration.reset();
   if (!show)
     source.reset();
-  if (pcl::console::find_switch(argc, argv, "-no_output") && !show) {
-    if (!transform_path.empty())
-      print_info("Wrote %s\n", transform_path.c_str());
-    return converged ? 0 : 3;
-  }
-  // PCL's writer throws pcl::IOException on a path it cannot open.
-  bool written = false;
-  try {
-    written = pcl::io::savePCDFileBinary(aligned_path, aligned) >= 0;
-  }
-  catch (const std::exception&) {
-  }
-  if (!written) {
-    print_error("pcl_mi_align: cannot write '%s'\n", aligned_path.c_str());
-    return 1;
-  }
-  const std::string write_error = pcl_mi::io::saveMergedPcd(merged_path, *target, aligned);
-  if (!write_error.empty()) {
-    print_error("pcl_mi_align: %s\n", write_error.c_str());
-    return 1;
+  const bool write_clouds = !pcl::console::find_switch(argc, argv, "-no_output");
+  if (write_clouds) {
+    // PCL's writer throws pcl::IOException on a path it cannot open.
+    bool written = false;
+    try {
+      written = pcl::io::savePCDFileBinary(aligned_path, aligned) >= 0;
+    }
+    catch (const std::exception&) {
+    }
+    if (!written) {
+      print_error("pcl_mi_align: cannot write '%s'\n", aligned_path.c_str());
+      return 1;
+    }
+    const std::string write_error = pcl_mi::io::saveMergedPcd(merged_path, *target, aligned);
+    if (!write_error.empty()) {
+      print_error("pcl_mi_align: %s\n", write_error.c_str());
+      return 1;
+    }
   }
   if (show) {
     auto before = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>();
@@ -331,15 +352,17 @@ run(int argc, char** argv)
       print_value("%s\n", screenshot.c_str());
     }
   }
-  print_info("Wrote ");
   if (!transform_path.empty()) {
-    print_value("%s", transform_path.c_str());
-    print_info(", ");
+    print_info("Wrote ");
+    print_value("%s\n", transform_path.c_str());
   }
-  print_value("%s", aligned_path.c_str());
-  print_info(" and ");
-  print_value("%s", merged_path.c_str());
-  print_info(" (view: pcl_viewer %s)\n", merged_path.c_str());
+  if (write_clouds) {
+    print_info("Wrote ");
+    print_value("%s", aligned_path.c_str());
+    print_info(" and ");
+    print_value("%s", merged_path.c_str());
+    print_info(" (view: pcl_viewer %s)\n", merged_path.c_str());
+  }
   return converged ? 0 : 3;
 }
 

@@ -23,6 +23,8 @@ except ImportError:
 
 matplotlib.use("Agg")  # files only; works without a display
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import FuncFormatter  # noqa: E402
+from matplotlib.transforms import blended_transform_factory  # noqa: E402
 
 
 def read_rows(path):
@@ -30,44 +32,74 @@ def read_rows(path):
         return list(csv.DictReader(f))
 
 
+SUCCESS_M, SUCCESS_DEG = 0.5, 2.0  # pcl_mi_compare's default -success bound
+
+
+SMALL_BIN = 5  # fewer rows than this are drawn as points: a box of two says nothing
+
+
+def succeeded(row):
+    return (float(row["translation_error_m"]) < SUCCESS_M
+            and float(row["rotation_error_deg"]) < SUCCESS_DEG)
+
+
 def boxplot(rows, initial_key, final_key, bin_width, unit, title, path):
+    """Final against initial error per method and bin: a box per (bin, method), or its
+    points when the bin is small, with the rows and success rate above each, and the
+    success bound as a line. Linear scale when every error is small, else symlog with
+    plain-number ticks."""
     methods = list(dict.fromkeys(r["method"] for r in rows))
     bins = sorted({int(float(r[initial_key]) // bin_width) for r in rows})
-    fig, ax = plt.subplots(figsize=(min(13.0, max(6.0, 1.3 * len(bins) + 2.0)), 4.5))
+    fig, ax = plt.subplots(figsize=(min(14.0, max(7.0, 1.4 * len(bins) + 3.5)), 4.8))
     width = 0.8 / max(1, len(methods))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    bound = SUCCESS_M if unit == "m" else SUCCESS_DEG
+    largest = max(float(r[final_key]) for r in rows)
+    linthresh = 0.1 if unit == "m" else 0.5
+    annotate = blended_transform_factory(ax.transData, ax.transAxes)
     for m_index, method in enumerate(methods):
-        data, positions = [], []
+        colour = colours[m_index % len(colours)]
         for b_index, b in enumerate(bins):
-            values = [float(r[final_key]) for r in rows
-                      if r["method"] == method and int(float(r[initial_key]) // bin_width) == b]
-            if values:
-                data.append(values)
-                positions.append(b_index + (m_index - (len(methods) - 1) / 2) * width)
-        if not data:
-            continue
-        parts = ax.boxplot(data, positions=positions, widths=width * 0.9, patch_artist=True,
-                           manage_ticks=False, showfliers=True,
-                           medianprops={"color": "black"})
-        for box in parts["boxes"]:
-            box.set_facecolor(colours[m_index % len(colours)])
-            box.set_alpha(0.7)
-        ax.plot([], [], color=colours[m_index % len(colours)], linewidth=8, label=method)
+            group = [r for r in rows
+                     if r["method"] == method and int(float(r[initial_key]) // bin_width) == b]
+            if not group:
+                continue
+            values = [float(r[final_key]) for r in group]
+            x = b_index + (m_index - (len(methods) - 1) / 2) * width
+            if len(values) < SMALL_BIN:
+                ax.scatter([x] * len(values), values, color=colour, s=14, zorder=3)
+            else:
+                parts = ax.boxplot([values], positions=[x], widths=width * 0.9,
+                                   patch_artist=True, manage_ticks=False, showfliers=True,
+                                   medianprops={"color": "black"})
+                parts["boxes"][0].set_facecolor(colour)
+                parts["boxes"][0].set_alpha(0.7)
+            rate = 100.0 * sum(succeeded(r) for r in group) / len(group)
+            ax.text(x, 1.01, f"{rate:.0f}%", transform=annotate, ha="center", va="bottom",
+                    fontsize=6)
+        ax.plot([], [], color=colour, linewidth=8, label=method)
+    ax.axhline(bound, color="grey", linestyle="--", linewidth=0.8,
+               label=f"success bound ({bound:g} {unit})")
     ax.set_xticks(range(len(bins)))
-    ax.set_xticklabels([f"{b * bin_width:g}-{(b + 1) * bin_width:g}" for b in bins])
-    ax.set_xlabel(f"initial error [{unit}]")
+    counts = [max(sum(1 for r in rows if r["method"] == m
+                      and int(float(r[initial_key]) // bin_width) == b) for m in methods)
+              for b in bins]
+    ax.set_xticklabels([f"{b * bin_width:g}-{(b + 1) * bin_width:g}\nn={n}"
+                        for b, n in zip(bins, counts)])
+    ax.set_xlabel(f"initial error [{unit}] (n: alignments per method; above: success rate)")
     ax.set_ylabel(f"final error [{unit}]")
-    ax.set_yscale("symlog", linthresh=0.1 if unit == "m" else 0.5)
+    if largest > 2 * max(linthresh, bound):
+        ax.set_yscale("symlog", linthresh=linthresh)
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.set_ylim(bottom=0)
-    ax.set_title(title)
+    ax.set_title(title, pad=22)
     ax.grid(True, axis="y", alpha=0.3)
-    ax.legend(loc="upper left", fontsize="small")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
 
-SUCCESS_M, SUCCESS_DEG = 0.5, 2.0  # pcl_mi_compare's default -success bound
 BIAS_COLUMNS = (("along_error_m", "along the reference motion (+ = beyond it)"),
                 ("left_error_m", "left of the reference motion"),
                 ("up_error_m", "above the reference motion"))
@@ -75,10 +107,7 @@ BIAS_COLUMNS = (("along_error_m", "along the reference motion (+ = beyond it)"),
 
 def bias_plot(rows, path):
     """Signed error components of the successful rows against the reference distance."""
-    rows = [r for r in rows
-            if float(r["translation_error_m"]) < SUCCESS_M
-            and float(r["rotation_error_deg"]) < SUCCESS_DEG
-            and not math.isnan(float(r["along_error_m"]))]
+    rows = [r for r in rows if succeeded(r) and not math.isnan(float(r["along_error_m"]))]
     if not rows:
         return False
     methods = list(dict.fromkeys(r["method"] for r in rows))
@@ -109,9 +138,11 @@ def bias_plot(rows, path):
         ax.set_title(label, fontsize="medium")
         ax.grid(True, alpha=0.3)
     axes[0].set_ylabel("signed translation error [m]")
-    axes[0].legend(loc="upper left", fontsize="small")
+    # Below the panels, where it covers no data.
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(4, len(labels)), fontsize="small")
     fig.suptitle("Signed error of the successful alignments (dots) and its mean per metre")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.08 + 0.04 * ((len(labels) - 1) // 4), 1, 1))
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return True
