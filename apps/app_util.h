@@ -89,7 +89,26 @@ enum class OptionValue {
 struct Option {
   const char* name;
   OptionValue value;
+  /** Help: the option as written with its value, then what it does (may be empty). */
+  std::string usage = {}, help = {};
 };
+
+/** Help lines of \a options, the usage column padded to 22 characters. */
+inline std::string
+optionsHelp(const std::vector<Option>& options)
+{
+  std::string text;
+  for (const Option& o : options) {
+    std::string usage = "  " + (o.usage.empty() ? std::string(o.name) : o.usage);
+    text += usage.size() < 23 ? usage + std::string(24 - usage.size(), ' ') : usage + "\n" +
+                                                                               std::string(24, ' ');
+    // Continuation lines of the help keep the column.
+    for (const char c : o.help)
+      text += c == '\n' ? std::string("\n") + std::string(24, ' ') : std::string(1, c);
+    text += "\n";
+  }
+  return text;
+}
 
 /** \a a followed by \a b. */
 inline std::vector<Option>

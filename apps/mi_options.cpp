@@ -9,21 +9,77 @@
 namespace pcl_mi {
 namespace apps {
 
+namespace {
+
+std::string
+format(const char* pattern, double a = 0, double b = 0, double c = 0, double d = 0,
+       double e = 0, double f = 0)
+{
+  char text[512];
+  std::snprintf(text, sizeof text, pattern, a, b, c, d, e, f);
+  return text;
+}
+
+} // namespace
+
 std::vector<Option>
 miOptionTable(MiOptionSet set)
 {
+  // The defaults shown are the library's own, so the help cannot drift from them.
+  const Parameters d;
+  const double deg = 180.0 / M_PI;
+  const auto& s = d.search.simplex_steps;
+  using V = OptionValue;
   std::vector<Option> table = {
-      {"-resolution", OptionValue::Number},     {"-steps", OptionValue::Numbers},
-      {"-max_iterations", OptionValue::Number}, {"-heading_starts", OptionValue::Number},
-      {"-position_starts", OptionValue::Number}, {"-narrow_view_starts", OptionValue::Number},
-      {"-levels", OptionValue::Number},         {"-subdivision", OptionValue::Number},
-      {"-restarts", OptionValue::Number},       {"-refinement", OptionValue::Text},
-      {"-refinement_resolution", OptionValue::Number}, {"-backend", OptionValue::Text},
-      {"-opencl_device", OptionValue::Numbers}};
+      {"-resolution", V::Number, "-resolution R",
+       format("voxel size in the clouds' units (default %g; metres for KITTI). The\n"
+              "refinement cube and the translation tolerance follow it; the steps do not",
+              d.grid.resolution)},
+      {"-steps", V::Numbers, "-steps tx,ty,tz,roll,pitch,yaw",
+       format("initial simplex: how far the guess may be off, in the clouds'\n"
+              "units and degrees; 0 pins a parameter (default %g,%g,%g,%.3g,%.3g,%.3g)",
+              s[0], s[1], s[2], s[3] * deg, s[4] * deg, s[5] * deg)},
+      {"-max_iterations", V::Number, "-max_iterations N",
+       format("Nelder-Mead iteration cap over all starts (default %g)", kDefaultMaxIterations)},
+      {"-heading_starts", V::Number, "-heading_starts N",
+       format("start the coarsest search from N headings spread over 360 deg,\n"
+              "for a heading that may be off by more than about 60 deg (default %g)",
+              d.search.heading_starts)},
+      {"-position_starts", V::Number, "-position_starts N",
+       format("also start it from N positions around the guess (half the x/y\n"
+              "steps away) (default %g)",
+              d.search.position_starts)},
+      {"-narrow_view_starts", V::Number, "-narrow_view_starts N",
+       format("position starts used instead when either cloud covers less than\n"
+              "180 deg of azimuth about its origin (default %g; 0 = off)",
+              d.search.narrow_view_position_starts)},
+      {"-levels", V::Number, "-levels N",
+       format("coarse-to-fine pyramid levels (default %g; 1 = single grid)",
+              d.grid.pyramid_levels)},
+      {"-subdivision", V::Number, "-subdivision N",
+       format("source samples per voxel edge (default %g; 0 = every point)",
+              d.sampling.source_subdivision)},
+      {"-restarts", V::Number, "-restarts N",
+       format("restarts on the finest searched level (default %g)", d.search.restarts)},
+      {"-refinement", V::Text, "-refinement on|off",
+       "refine the MI optimum on the target's distributions (default on)"},
+      {"-refinement_resolution", V::Number, "-refinement_resolution R",
+       "cube edge of the refinement (default 0: 0.7 * resolution)"},
+      {"-backend", V::Text, "-backend cpu|opencl|auto",
+       "where the cost evaluations run (default cpu; auto: OpenCL on a GPU\n"
+       "when every point is evaluated, else cpu)"},
+      {"-opencl_device", V::Numbers, "-opencl_device P,D",
+       "OpenCL platform and device index as clinfo -l lists them (default:\n"
+       "the first GPU, else the first device)"}};
   if (set == MiOptionSet::All) {
-    table.push_back({"-profile", OptionValue::None});
-    table.push_back({"-feature", OptionValue::Text});
-    table.push_back({"-paper", OptionValue::None});
+    table.push_back({"-feature", V::Text, "-feature varz|count",
+                     "voxel feature: variance of z or point count (default varz)"});
+    table.push_back({"-paper", V::None, "-paper",
+                     "the paper's exact method: one simplex, one grid, every point, no\n"
+                     "mirrored start, restarts or refinement"});
+    table.push_back({"-profile", V::None, "-profile",
+                     "print where the time went, stage by stage, and the backend's own\n"
+                     "(OpenCL: kernel times from device events)"});
   }
   return table;
 }
@@ -31,56 +87,7 @@ miOptionTable(MiOptionSet set)
 std::string
 miOptionsHelp(MiOptionSet set)
 {
-  const Parameters d;
-  const double deg = 180.0 / M_PI;
-  const auto& s = d.search.simplex_steps;
-  char text[4096];
-  std::snprintf(
-      text, sizeof text,
-      "MI parameters:\n"
-      "  -resolution R         voxel size in the clouds' units (default %g; metres for\n"
-      "                        KITTI). The refinement cube and the translation tolerance\n"
-      "                        follow it; the steps do not\n"
-      "  -steps tx,ty,tz,roll,pitch,yaw  initial simplex: how far the guess may be off,\n"
-      "                        in the clouds' units and degrees; 0 pins a parameter\n"
-      "                        (default %g,%g,%g,%.3g,%.3g,%.3g)\n"
-      "%s"
-      "  -max_iterations N     Nelder-Mead iteration cap over all starts (default %d)\n"
-      "  -heading_starts N     start the coarsest search from N headings spread over\n"
-      "                        360 deg, for a heading that may be off by more than about\n"
-      "                        60 deg (default %d)\n"
-      "  -position_starts N    also start it from N positions around the guess (half the\n"
-      "                        x/y steps away) (default %d)\n"
-      "  -narrow_view_starts N position starts used instead when either cloud covers less\n"
-      "                        than 180 deg of azimuth about its origin (default %d; 0 = off)\n"
-      "  -levels N             coarse-to-fine pyramid levels (default %d; 1 = single grid)\n"
-      "  -subdivision N        source samples per voxel edge (default %d; 0 = every point)\n"
-      "  -restarts N           restarts on the finest searched level (default %d)\n"
-      "  -refinement on|off    refine the MI optimum on the target's distributions\n"
-      "                        (default on)\n"
-      "  -refinement_resolution R  cube edge of the refinement (default 0: 0.7 * resolution)\n"
-      "%s"
-      "  -backend cpu|opencl|auto   where the cost evaluations run (default cpu; auto:\n"
-      "                        OpenCL on a GPU when every point is evaluated, else cpu)\n"
-      "  -opencl_device P,D    OpenCL platform and device index as clinfo -l lists them\n"
-      "                        (default: the first GPU, else the first device)\n"
-      "%s",
-      d.grid.resolution, s[0], s[1], s[2], s[3] * deg, s[4] * deg, s[5] * deg,
-      set == MiOptionSet::All
-          ? "  -feature varz|count   voxel feature: variance of z or point count (default varz)\n"
-          : "",
-      kDefaultMaxIterations, d.search.heading_starts, d.search.position_starts,
-      d.search.narrow_view_position_starts, d.grid.pyramid_levels,
-      d.sampling.source_subdivision, d.search.restarts,
-      set == MiOptionSet::All
-          ? "  -paper                the paper's exact method: one simplex, one grid, every\n"
-            "                        point, no mirrored start, restarts or refinement\n"
-          : "",
-      set == MiOptionSet::All
-          ? "  -profile              print where the time went, stage by stage, and the\n"
-            "                        backend's own (OpenCL: kernel times from device events)\n"
-          : "");
-  return text;
+  return "MI parameters:\n" + optionsHelp(miOptionTable(set));
 }
 
 const char*
