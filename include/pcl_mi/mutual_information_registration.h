@@ -128,7 +128,7 @@ public:
   void
   setResolution(double resolution)
   {
-    setField("setResolution", &pcl_mi::Parameters::grid, &pcl_mi::GridParameters::resolution, resolution);
+    setField("setResolution", &Params::grid, &Grid::resolution, resolution);
   }
   double
   getResolution() const
@@ -140,7 +140,7 @@ public:
   void
   setFeature(pcl_mi::Feature feature)
   {
-    setField("setFeature", &pcl_mi::Parameters::grid, &pcl_mi::GridParameters::feature, feature);
+    setField("setFeature", &Params::grid, &Grid::feature, feature);
   }
   pcl_mi::Feature
   getFeature() const
@@ -170,7 +170,7 @@ public:
   void
   setSimplexSteps(const Vector6d& steps)
   {
-    setField("setSimplexSteps", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::simplex_steps, steps);
+    setField("setSimplexSteps", &Params::search, &Search::simplex_steps, steps);
   }
   Vector6d
   getSimplexSteps() const
@@ -183,7 +183,7 @@ public:
   void
   setSymmetricStart(bool symmetric)
   {
-    setField("setSymmetricStart", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::symmetric_start, symmetric);
+    setField("setSymmetricStart", &Params::search, &Search::symmetric_start, symmetric);
   }
   bool
   getSymmetricStart() const
@@ -197,7 +197,7 @@ public:
   void
   setNumberOfRestarts(int restarts)
   {
-    setField("setNumberOfRestarts", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::restarts, restarts);
+    setField("setNumberOfRestarts", &Params::search, &Search::restarts, restarts);
   }
   int
   getNumberOfRestarts() const
@@ -211,7 +211,7 @@ public:
   void
   setNumberOfHeadingStarts(int headings)
   {
-    setField("setNumberOfHeadingStarts", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::heading_starts, headings);
+    setField("setNumberOfHeadingStarts", &Params::search, &Search::heading_starts, headings);
   }
   int
   getNumberOfHeadingStarts() const
@@ -225,7 +225,7 @@ public:
   void
   setNumberOfPositionStarts(int positions)
   {
-    setField("setNumberOfPositionStarts", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::position_starts, positions);
+    setField("setNumberOfPositionStarts", &Params::search, &Search::position_starts, positions);
   }
   int
   getNumberOfPositionStarts() const
@@ -240,7 +240,8 @@ public:
   void
   setNarrowViewPositionStarts(int positions)
   {
-    setField("setNarrowViewPositionStarts", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::narrow_view_position_starts, positions);
+    setField("setNarrowViewPositionStarts", &Params::search,
+             &Search::narrow_view_position_starts, positions);
   }
   int
   getNarrowViewPositionStarts() const
@@ -253,7 +254,7 @@ public:
   void
   setTranslationTolerance(double tolerance)
   {
-    setField("setTranslationTolerance", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::translation_tolerance, tolerance);
+    setField("setTranslationTolerance", &Params::search, &Search::translation_tolerance, tolerance);
   }
   /** \brief The translation tolerance in use (0.005 m at the default 1 m resolution). */
   double
@@ -267,7 +268,7 @@ public:
   void
   setRotationTolerance(double tolerance)
   {
-    setField("setRotationTolerance", &pcl_mi::Parameters::search, &pcl_mi::SearchParameters::rotation_tolerance, tolerance);
+    setField("setRotationTolerance", &Params::search, &Search::rotation_tolerance, tolerance);
   }
   double
   getRotationTolerance() const
@@ -282,7 +283,7 @@ public:
   void
   setBackend(pcl_mi::Backend backend)
   {
-    setField("setBackend", &pcl_mi::Parameters::backend, &pcl_mi::BackendParameters::type, backend);
+    setField("setBackend", &Params::backend, &Devices::type, backend);
   }
   pcl_mi::Backend
   getBackend() const
@@ -295,7 +296,7 @@ public:
   void
   setDeviceProfiling(bool enabled)
   {
-    setField("setDeviceProfiling", &pcl_mi::Parameters::backend, &pcl_mi::BackendParameters::profile_device, enabled);
+    setField("setDeviceProfiling", &Params::backend, &Devices::profile_device, enabled);
   }
   bool
   getDeviceProfiling() const
@@ -316,7 +317,7 @@ public:
   void
   setRefinement(pcl_mi::Refinement refinement)
   {
-    setField("setRefinement", &pcl_mi::Parameters::refinement, &pcl_mi::RefinementParameters::method, refinement);
+    setField("setRefinement", &Params::refinement, &Refine::method, refinement);
   }
   pcl_mi::Refinement
   getRefinement() const
@@ -329,7 +330,7 @@ public:
   void
   setRefinementResolution(double resolution)
   {
-    setField("setRefinementResolution", &pcl_mi::Parameters::refinement, &pcl_mi::RefinementParameters::resolution, resolution);
+    setField("setRefinementResolution", &Params::refinement, &Refine::resolution, resolution);
   }
   /** \brief The refinement cube edge in use (0.7 m at the default 1 m resolution). */
   double
@@ -369,12 +370,9 @@ public:
   /** \brief Cost evaluations (MI computations) of the last align(). */
   int
   getNumberOfEvaluations() const
-  {
-    return result_.evaluations;
-  }
+  { return result_.evaluations; }
 
-  /** \brief Gauss-Newton iterations of the last align()'s refinement (0 when it was off
-   * or discarded). */
+  /** \brief Gauss-Newton iterations of the last refinement (0: off or discarded). */
   int
   getNumberOfRefinementIterations() const
   {
@@ -388,25 +386,21 @@ public:
     return result_;
   }
 
-  /** \brief Why the last align() failed (the final transformation is the guess) or did
-   * not converge (the iteration cap ended the search; the final transformation is the best
-   * found); empty after a converged one. getLastResult().error holds failures only. */
+  /** \brief Why the last align() failed (the pose stays the guess) or did not converge
+   * (the iteration cap ended it; the pose is the best found). getLastResult().error: failures. */
   const std::string&
   getLastError() const
   {
     return last_error_;
   }
 
-  /** \brief Mutual information (nats) of source and target at \a pose (source to target),
-   * e.g. for cost-surface plots. The source is converted once and reused while the source
-   * cloud and indices objects stay the same; call setInputSource() after editing a cloud
-   * in place. 0 where the clouds do not overlap; negative (with
-   * PCL_ERROR) when the inputs are unusable. */
+  /** \brief Mutual information (nats) at \a pose (source to target), e.g. for cost
+   * surfaces: 0 without overlap, negative (with PCL_ERROR) for unusable inputs. The source
+   * is converted once per cloud and indices object: call setInputSource() after an edit. */
   double
   evaluate(const Matrix4& pose);
 
-  /** \brief The non-templated engine, read-only: backend name and warning, dropped
-   * points (its parameters change through this class's setters only). */
+  /** \brief The engine, read-only: backend name and warning, dropped points. */
   const pcl_mi::RegistrationCore&
   core() const
   {
@@ -440,13 +434,15 @@ private:
   bool
   applyParameters(const pcl_mi::Parameters& parameters, const char* setter);
 
+  using Params = pcl_mi::Parameters;
+  using Grid = pcl_mi::GridParameters;
+  using Search = pcl_mi::SearchParameters;
+  using Refine = pcl_mi::RefinementParameters;
+  using Devices = pcl_mi::BackendParameters;
   /** Sets one field of one parameter group through applyParameters(). */
   template <typename Group, typename Field, typename Value>
   void
-  setField(const char* setter,
-           Group pcl_mi::Parameters::*group,
-           Field Group::*field,
-           const Value& value)
+  setField(const char* setter, Group Params::*group, Field Group::*field, const Value& value)
   {
     pcl_mi::Parameters p = core_.parameters();
     (p.*group).*field = value;

@@ -367,9 +367,9 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setFeatureBinni
     pcl_mi::Feature feature, int num_bins, double max_value, double range_quantile)
 {
   const pcl_mi::FeatureBinning binning{num_bins, max_value, range_quantile};
-  setField("setFeatureBinning", &pcl_mi::Parameters::grid,
-           feature == pcl_mi::Feature::VarianceZ ? &pcl_mi::GridParameters::variance_z_binning
-                                                 : &pcl_mi::GridParameters::point_count_binning,
+  setField("setFeatureBinning", &Params::grid,
+           feature == pcl_mi::Feature::VarianceZ ? &Grid::variance_z_binning
+                                                 : &Grid::point_count_binning,
            binning);
 }
 
