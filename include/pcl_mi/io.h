@@ -60,28 +60,33 @@ toCloud(const ScanPoints& points, pcl::PointCloud<pcl::PointXYZI>& cloud)
   cloud.is_dense = points.is_dense;
 }
 
-/** \brief Loads a scan (see readScan()) into \a cloud; on failure \a cloud is empty. */
+/** \brief \a read (readScan or readKittiBin) of \a path into \a cloud; on failure
+ * \a cloud is empty and the reason returned. */
 inline std::string
-loadCloud(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
+loadInto(std::string (*read)(const std::string&, ScanPoints&),
+         const std::string& path,
+         pcl::PointCloud<pcl::PointXYZI>& cloud)
 {
   ScanPoints points;
-  const std::string error = readScan(path, points);
+  const std::string error = read(path, points);
   cloud.clear();
   if (error.empty())
     toCloud(points, cloud);
   return error;
 }
 
+/** \brief Loads a scan (see readScan()) into \a cloud. */
+inline std::string
+loadCloud(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
+{
+  return loadInto(readScan, path, cloud);
+}
+
 /** \brief Loads a KITTI Velodyne .bin scan (see readKittiBin()). */
 inline std::string
 loadKittiBin(const std::string& path, pcl::PointCloud<pcl::PointXYZI>& cloud)
 {
-  ScanPoints points;
-  const std::string error = readKittiBin(path, points);
-  cloud.clear();
-  if (error.empty())
-    toCloud(points, cloud);
-  return error;
+  return loadInto(readKittiBin, path, cloud);
 }
 
 /** \brief Reads a rigid transformation from text: 16 numbers (4x4, row-major) or 12
