@@ -20,7 +20,7 @@ release_build="${PCL_MI_BUILD_DIR:-$root/build}"
 bash "$root/scripts/setup_debian.sh"
 
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DPCL_MI_SANITIZE=ON -DPCL_MI_BUILD_FUZZERS=ON -DPCL_MI_BUILD_APPS=OFF
+  -DPCL_MI_SANITIZE=ON -DPCL_MI_BUILD_FUZZERS=ON -DPCL_MI_BUILD_APPS=OFF -DPCL_MI_WITH_PYTHON=OFF
 cmake --build "$build" -j "$(nproc)" --target pcl_mi_unit_tests pcl_mi_registration_tests \
   pcl_mi_opencl_tests pcl_mi_soak fuzz_readers fuzz_align fuzz_api
 

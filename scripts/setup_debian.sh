@@ -9,6 +9,7 @@ packages=(
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo
   clang libclang-rt-14-dev
   python3-matplotlib python3-numpy xvfb xauth
+  pybind11-dev python3-dev python3-pytest
   pcl-tools
 )
 missing=()

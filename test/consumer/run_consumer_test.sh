@@ -26,3 +26,9 @@ if [ -x "$work_dir/install/bin/pcl_mi_align" ]; then
   env -u LD_LIBRARY_PATH "$work_dir/install/bin/pcl_mi_align" -h > "$work_dir.app_help.log"
   echo "installed pcl_mi_align -h: exit 0"
 fi
+# The installed Python module imports with the system python3 from the prefix alone.
+module=$(find "$work_dir/install" -name 'pcl_mi.cpython-*.so' | head -n 1)
+if [ -n "$module" ]; then
+  env -u LD_LIBRARY_PATH PYTHONPATH="$(dirname "$module")" /usr/bin/python3 -c \
+    "import pcl_mi; print('installed Python module:', pcl_mi.__version__, pcl_mi.__file__)"
+fi

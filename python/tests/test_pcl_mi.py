@@ -1,0 +1,154 @@
+"""The Python module on real scans: accuracy, identity with the C++ API, reuse, bad input
+and the GIL. Run by ctest (python_module) from the repository root."""
+import os
+import re
+import subprocess
+import tempfile
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import pcl_mi
+
+DATA = os.path.join("data", "kitti")
+
+
+def scan(sequence, frame):
+    path = os.path.join(DATA, "sequences", sequence, "velodyne", f"{frame:06d}.bin")
+    return np.fromfile(path, dtype=np.float32).reshape(-1, 4)
+
+
+def reference(sequence, source, target):
+    path = os.path.join(DATA, f"reference_{sequence}_{source:06d}_to_{target:06d}.txt")
+    return np.loadtxt(path).reshape(4, 4)
+
+
+def pose_error(estimate, truth):
+    delta = np.linalg.inv(truth) @ estimate
+    angle = np.degrees(np.arccos(np.clip((np.trace(delta[:3, :3]) - 1) / 2, -1, 1)))
+    return np.linalg.norm(delta[:3, 3]), angle
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return scan("00", 9), scan("00", 0), reference("00", 9, 0)
+
+
+def test_readme_example_runs():
+    text = open("README.md").read()
+    example = re.search(r"<!-- python-example:begin -->\s*```python\n(.*?)```", text, re.S)
+    assert example, "README.md has no Python example"
+    namespace = {}
+    exec(compile(example.group(1), "README.md", "exec"), namespace)
+    assert namespace["result"].converged
+
+
+@pytest.mark.parametrize("sequence,source,target", [("00", 9, 0), ("02", 6, 0)])
+def test_bundled_pairs_align_to_the_reference(sequence, source, target):
+    result = pcl_mi.align(scan(sequence, source), scan(sequence, target))
+    translation, rotation = pose_error(result.transformation, reference(sequence, source, target))
+    assert result.converged
+    assert translation < 0.08 and rotation < 0.2, (translation, rotation)
+    assert result.transformation.shape == (4, 4) and result.transformation.dtype == np.float64
+    assert result.evaluations > 0 and result.seconds > 0 and result.mutual_information > 0
+
+
+def test_pose_is_bit_identical_to_the_cpp_api(pair):
+    source, target, _ = pair
+    result = pcl_mi.align(source, target)
+    with tempfile.TemporaryDirectory() as work:
+        transform = os.path.join(work, "t.txt")
+        data = os.path.join(DATA, "sequences", "00", "velodyne")
+        subprocess.run([os.environ["PCL_MI_ALIGN"], os.path.join(data, "000009.bin"),
+                        os.path.join(data, "000000.bin"), "-no_output", "-transform", transform],
+                       check=True, stdout=subprocess.DEVNULL)
+        cpp = np.loadtxt(transform)  # written with 17 significant digits: exact
+    # pcl_mi_align's PCL adapter is MutualInformationRegistration<PointXYZI>, whose final
+    # transformation is a float 4x4: the engine's double pose rounded to float.
+    assert np.array_equal(result.transformation.astype(np.float32).astype(np.float64), cpp)
+
+
+def test_float64_input_and_extra_columns(pair):
+    source, target, _ = pair
+    a = pcl_mi.align(source[:, :3].astype(np.float64), target.astype(np.float64))
+    b = pcl_mi.align(source, target)
+    assert np.array_equal(a.transformation, b.transformation)
+
+
+def test_scan_to_map_reuses_the_target():
+    target = scan("00", 0)
+    registration = pcl_mi.Registration()
+    registration.set_target(target)
+    first = registration.align(scan("00", 9))
+    again = registration.align(scan("00", 9))
+    fresh = pcl_mi.align(scan("00", 9), target)
+    assert np.array_equal(first.transformation, again.transformation)
+    assert np.array_equal(first.transformation, fresh.transformation)
+    registration.set_source(scan("00", 9))
+    assert registration.evaluate(first.transformation) == pytest.approx(
+        first.mutual_information, rel=1e-12)
+
+
+def test_parameters_by_name(pair):
+    source, target, truth = pair
+    result = pcl_mi.align(source, target, resolution=1.0, feature="count", pyramid_levels=3,
+                          heading_starts=2, max_iterations=800)
+    assert pose_error(result.transformation, truth)[0] < 0.08
+    capped = pcl_mi.align(source, target, max_iterations=5)
+    assert not capped.converged and capped.iterations <= 5
+    guess = np.eye(4)
+    guess[:3, 3] = truth[:3, 3] + [0.5, -0.5, 0.0]
+    assert pcl_mi.align(source, target, guess=guess).converged
+
+
+@pytest.mark.parametrize("bad,reason", [
+    (lambda s, t: pcl_mi.align(s[:, :2], t), "array"),
+    (lambda s, t: pcl_mi.align(np.zeros((0, 3), np.float32), t), "no points"),
+    (lambda s, t: pcl_mi.align(np.full((100, 3), np.nan, np.float32), t), "usable points"),
+    (lambda s, t: pcl_mi.align(s.astype(np.int32), t), "float32 or float64"),
+    (lambda s, t: pcl_mi.align(s, t, guess=np.full((4, 4), np.inf)), "finite"),
+    (lambda s, t: pcl_mi.align(s, t, guess=np.eye(3)), "4x4"),
+    (lambda s, t: pcl_mi.align(s, t, resolution=-1.0), "resolution"),
+    (lambda s, t: pcl_mi.align(s, t, feature="colour"), "feature"),
+    (lambda s, t: pcl_mi.align(s, t, max_iterations=0), "maximum iterations"),
+    (lambda s, t: pcl_mi.align(s, t, backend="gpu"), "backend"),
+])
+def test_bad_input_raises_value_error_with_the_reason(pair, bad, reason):
+    source, target, _ = pair
+    with pytest.raises(ValueError, match=reason):
+        bad(source, target)
+
+
+def test_unknown_parameter_is_a_type_error(pair):
+    source, target, _ = pair
+    with pytest.raises(TypeError, match="resoluton"):
+        pcl_mi.align(source, target, resoluton=0.5)
+
+
+def test_the_gil_is_released_while_aligning(pair):
+    """Two threads align at once: their align() calls overlap in time only if the first
+    released the GIL."""
+    source, target, _ = pair
+    registrations = [pcl_mi.Registration(num_threads=1) for _ in range(2)]
+    for r in registrations:
+        r.set_target(target)
+    barrier = threading.Barrier(2)
+    spans = [None, None]
+    results = [None, None]
+
+    def work(k):
+        barrier.wait()
+        begin = time.monotonic()
+        results[k] = registrations[k].align(source)
+        spans[k] = (begin, time.monotonic())
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    (a0, a1), (b0, b1) = spans
+    assert max(a0, b0) < min(a1, b1), spans  # the calls ran at the same time
+    assert np.array_equal(results[0].transformation, results[1].transformation)
