@@ -259,7 +259,7 @@ run(int argc, char** argv)
 
   if (!reg.getLastResult().error.empty()) {
     print_error("pcl_mi_align: alignment failed: %s\n", reg.getLastResult().error.c_str());
-    return 2;
+    return 1;
   }
   const Eigen::Matrix4d result = reg.getFinalTransformation().cast<double>();
   print_info("Final transformation (source to target):\n");
