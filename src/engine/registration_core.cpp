@@ -10,6 +10,7 @@
 #include "engine/refine_optimum.h"
 #include "engine/search_space.h"
 #include "search/coarse_to_fine.h"
+#include "util/stage_clock.h"
 #ifdef PCL_MI_WITH_OPENCL
 #include "backend/opencl_backend.h"
 #endif
@@ -17,7 +18,6 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
-#include <chrono>
 
 namespace pcl_mi {
 
@@ -57,22 +57,6 @@ private:
   core::PreparedProblem& problem_;
   const core::SearchSpace& space_;
   JointHistogram histograms_[2]; // one per slot: the two may run concurrently
-};
-
-/** Wall-clock stages of align(), closed one after the other. */
-class StageClock {
-public:
-  void
-  end(std::vector<StageTiming>& stages, std::string name, int calls)
-  {
-    const auto now = std::chrono::steady_clock::now();
-    stages.push_back(
-        {std::move(name), calls, std::chrono::duration<double, std::milli>(now - start_).count()});
-    start_ = now;
-  }
-
-private:
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
 } // namespace
@@ -130,7 +114,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     return result;
 
   core::PreparedProblem& problem = impl_->problem;
-  StageClock clock;
+  core::StageClock clock;
   if (!problem.prepare(result.error))
     return result;
   result.warnings = problem.warnings();
@@ -168,12 +152,9 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.transformation = space.pose(found.best.x);
 
   if (p.refinement.method == Refinement::PointToDistribution) {
-    const auto start = std::chrono::steady_clock::now();
+    core::StageClock refinement_clock;
     const core::RefinedOptimum refined = core::refineOptimum(problem, space, result.transformation);
-    result.stages.push_back(
-        {"refinement", refined.iterations,
-         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-             .count()});
+    refinement_clock.end(result.stages, "refinement", refined.iterations);
     if (refined.accepted) {
       result.refinement_iterations = refined.iterations;
       result.transformation = refined.transformation;

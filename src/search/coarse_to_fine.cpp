@@ -4,10 +4,10 @@
 #include "search/coarse_to_fine.h"
 
 #include "util/parallel.h"
+#include "util/stage_clock.h"
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -44,8 +44,7 @@ struct Start {
 class Searcher {
 public:
   Searcher(LevelCosts& costs, const CoarseToFineOptions& options)
-  : costs_(costs), o_(options), budget_(options.max_iterations),
-    stage_start_(std::chrono::steady_clock::now())
+  : costs_(costs), o_(options), budget_(options.max_iterations)
   {}
 
   /** One Nelder-Mead search on \a level by evaluator \a slot, capped at \a cap. */
@@ -233,12 +232,8 @@ public:
   void
   endStage(std::string name)
   {
-    const auto now = std::chrono::steady_clock::now();
-    result_.stages.push_back(
-        {std::move(name), result_.evaluations - stage_evaluations_,
-         std::chrono::duration<double, std::milli>(now - stage_start_).count()});
+    clock_.end(result_.stages, std::move(name), result_.evaluations - stage_evaluations_);
     stage_evaluations_ = result_.evaluations;
-    stage_start_ = now;
   }
 
   std::string
@@ -262,7 +257,7 @@ private:
   CoarseToFineResult result_;
   bool have_best_ = false;
   int stage_evaluations_ = 0;
-  std::chrono::steady_clock::time_point stage_start_;
+  StageClock clock_;
 };
 
 } // namespace
