@@ -155,8 +155,6 @@ PreparedProblem::prepare(std::string& error)
       return false;
     levels_.clear();
     levels_.resize(static_cast<std::size_t>(num_levels));
-    for (int l = 0; l < num_levels; ++l)
-      levels_[static_cast<std::size_t>(l)].resolution = levelResolution(l);
     distributions_.reset();
   }
 
@@ -289,14 +287,14 @@ PreparedProblem::resetBackendProfile()
 void
 PreparedProblem::buildGrid(int level)
 {
-  Level& l = levels_[static_cast<std::size_t>(level)];
+  const double resolution = levelResolution(level);
   auto grid = std::make_shared<TargetGrid>();
   std::string error;
   // prepare() has ruled out every reason this could fail.
-  if (!buildTargetGrid(target_.points, l.resolution, parameters_.grid.feature,
-                       levelBinning(l.resolution), *grid, error))
+  if (!buildTargetGrid(target_.points, resolution, parameters_.grid.feature,
+                       levelBinning(resolution), *grid, error))
     throw std::runtime_error(error);
-  l.grid = std::move(grid);
+  levels_[static_cast<std::size_t>(level)].grid = std::move(grid);
 }
 
 FeatureBinning

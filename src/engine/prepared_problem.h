@@ -119,9 +119,9 @@ public:
   resetBackendProfile();
 
 private:
-  /** One pyramid level: the target grid, the source samples, one backend per slot. */
+  /** One pyramid level (voxel size levelResolution()): the target grid, the source
+   * samples, one backend per slot. */
   struct Level {
-    double resolution = 1.0;
     std::shared_ptr<const TargetGrid> grid;
     std::shared_ptr<const SourceSamples> samples;
     std::unique_ptr<backend::ScoringBackend> slots[2];
