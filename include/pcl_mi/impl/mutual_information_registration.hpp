@@ -434,21 +434,18 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
               getClassName().c_str(),
               result_.error.c_str());
     final_transformation_ = guess;
+    last_error_ = result_.error;
   }
   else {
     final_transformation_ = result_.transformation.template cast<Scalar>();
     converged_ = result_.converged;
     nr_iterations_ = result_.iterations;
+    last_error_ = converged_ ? std::string()
+                             : "not converged: the iteration cap (setMaximumIterations(" +
+                                   std::to_string(max_iterations_) +
+                                   ")) ended the search before the simplex met its "
+                                   "tolerances; the final transformation is the best one found";
   }
-  if (!result_.error.empty())
-    last_error_ = result_.error;
-  else if (!converged_)
-    last_error_ = "not converged: the iteration cap (setMaximumIterations(" +
-                  std::to_string(max_iterations_) +
-                  ")) ended the search before the simplex met its tolerances; the final "
-                  "transformation is the best one found";
-  else
-    last_error_.clear();
   transformation_ = final_transformation_;
   previous_transformation_ = final_transformation_;
   // Like every PCL registration: output is the source under the final transformation.
