@@ -32,12 +32,14 @@ miOptionTable(MiOptionSet set)
   using V = OptionValue;
   std::vector<Option> table = {
       {"-resolution", V::Number, "-resolution R",
-       format("voxel size in the clouds' units (default %g; metres for KITTI). The\n"
-              "refinement cube and the translation tolerance follow it; the steps do not",
+       format("voxel size in the clouds' units; 0 = derived from the target's extent\n"
+              "(default %g: 1 m on a street scan, about 0.125 m in a room). The refinement\n"
+              "cube, the translation tolerance and steps in voxels follow it",
               d.grid.resolution)},
       {"-steps", V::Numbers, "-steps tx,ty,tz,roll,pitch,yaw",
        format("initial simplex: how far the guess may be off, in the clouds'\n"
-              "units and degrees; 0 pins a parameter (default %g,%g,%g,%.3g,%.3g,%.3g)",
+              "units (negative: in voxels) and degrees; 0 pins a parameter\n"
+              "(default %g,%g,%g,%.3g,%.3g,%.3g)",
               s[0], s[1], s[2], s[3] * deg, s[4] * deg, s[5] * deg)},
       {"-max_iterations", V::Number, "-max_iterations N",
        format("Nelder-Mead iteration cap over all starts (default %g)", kDefaultMaxIterations)},

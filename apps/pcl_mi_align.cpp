@@ -239,19 +239,18 @@ run(int argc, char** argv)
   }
   reg.setParameters(parameters);
   reg.setMaximumIterations(max_iterations);
-  const double resolution = parameters.grid.resolution;
   const bool varz = parameters.grid.feature == pcl_mi::Feature::VarianceZ;
 
+  const auto start = std::chrono::steady_clock::now();
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  const double resolution = reg.getResolution();
   print_info("Source: ");
   print_value("%s (%zu points)\n", source_path.c_str(), source->size());
   print_info("Target: ");
   print_value("%s (%zu points)\n", target_path.c_str(), target->size());
   print_info("MI-%s, resolution ", varz ? "VARZ" : "N");
-  print_value("%g\n", resolution);
-
-  const auto start = std::chrono::steady_clock::now();
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
+  print_value("%g%s\n", resolution, parameters.grid.resolution == 0.0 ? " (derived)" : "");
   pcl::PointCloud<pcl::PointXYZI> aligned;
   reg.align(aligned, guess.cast<float>());
   const double seconds =

@@ -183,13 +183,15 @@ TEST_F(BadInput, ExtentTooLargeForTheGridIsRefused)
 TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
 {
   Registration reg;
-  reg.setResolution(0.0);
-  EXPECT_EQ(reg.getResolution(), 1.0);
-  reg.setResolution(-2.0);
-  EXPECT_EQ(reg.getResolution(), 1.0);
-  reg.setResolution(std::numeric_limits<double>::quiet_NaN());
-  EXPECT_EQ(reg.getResolution(), 1.0);
+  // The default resolution is derived from the target: unknown (0) until one is set.
+  EXPECT_EQ(reg.getParameters().grid.resolution, 0.0);
+  EXPECT_EQ(reg.getResolution(), 0.0);
   reg.setResolution(0.5);
+  reg.setResolution(-2.0);
+  EXPECT_EQ(reg.getResolution(), 0.5);
+  reg.setResolution(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(reg.getResolution(), 0.5);
+  reg.setResolution(std::numeric_limits<double>::infinity());
   EXPECT_EQ(reg.getResolution(), 0.5);
 
   reg.setFeatureBinning(pcl_mi::Feature::VarianceZ, 0, 0.1);
@@ -202,7 +204,10 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   EXPECT_EQ(reg.getFeatureBinning(pcl_mi::Feature::PointCount).num_bins, 16);
 
   reg.setSimplexSteps(Eigen::Matrix<double, 6, 1>::Zero());
-  EXPECT_EQ(reg.getSimplexSteps()[0], 8.0);
+  // The default translation steps are 8, 8 and 1 voxels: 4, 4 and 0.5 at 0.5 m.
+  EXPECT_EQ(reg.getSimplexSteps()[0], 4.0);
+  EXPECT_EQ(reg.getSimplexSteps()[2], 0.5);
+  EXPECT_EQ(reg.getParameters().search.simplex_steps[0], -8.0);
   // Lengths tied to the grid follow the resolution (0.5 here) until they are set; 0
   // returns them to following it.
   EXPECT_EQ(reg.getTranslationTolerance(), 0.0025);

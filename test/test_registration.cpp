@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <thread>
 #include <tuple>
 
@@ -162,24 +163,28 @@ TEST(Registration, FarFromOriginLikeUtm)
 
 TEST(Registration, SameRelativeAccuracyAtOtherScales)
 {
-  // The pair shrunk to a room's size (x0.1) and in millimetres (x1000), with the resolution
-  // and the simplex steps scaled alike: everything else tied to the grid follows the
-  // resolution, so the alignment is the same up to the scale. (With a fixed 0.7 m
-  // refinement cube the x0.1 pair ended 0.059 m = 0.59 scaled metres off.)
+  // The pair shrunk to a room's size and in millimetres-like units, either with the
+  // resolution and the simplex steps set to the scale or with the defaults, which derive
+  // both from the target's extent: everything else tied to the grid follows the resolution,
+  // so the alignment is the same up to the scale. Powers of two keep the derived resolution
+  // an exact multiple. (With a fixed 0.7 m refinement cube the x0.1 pair ended 0.059 m =
+  // 0.59 scaled metres off.)
   auto source = test_data::loadScan("00", 9);
   auto target = test_data::loadScan("00", 0);
   const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
-  auto alignAtScale = [&](double scale) {
+  auto alignAtScale = [&](double scale, bool derived) {
     Cloud::Ptr scaled_source(new Cloud), scaled_target(new Cloud);
     const Eigen::Matrix4f s = (Eigen::Vector4f() << Eigen::Vector3f::Constant(
                                    static_cast<float>(scale)), 1.0f).finished().asDiagonal();
     pcl::transformPointCloud(*source, *scaled_source, s);
     pcl::transformPointCloud(*target, *scaled_target, s);
     pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-    reg.setResolution(scale);
-    Eigen::Matrix<double, 6, 1> steps = reg.getSimplexSteps();
-    steps.head<3>() *= scale;
-    reg.setSimplexSteps(steps);
+    if (!derived) {
+      reg.setResolution(scale);
+      Eigen::Matrix<double, 6, 1> steps;
+      steps << 8.0 * scale, 8.0 * scale, 1.0 * scale, 0.1, 0.1, 0.8;
+      reg.setSimplexSteps(steps);
+    }
     reg.setInputSource(scaled_source);
     reg.setInputTarget(scaled_target);
     Cloud aligned;
@@ -187,17 +192,21 @@ TEST(Registration, SameRelativeAccuracyAtOtherScales)
     EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
     Eigen::Matrix4d t = reg.getFinalTransformation().cast<double>();
     t.topRightCorner<3, 1>() /= scale; // back to metres
-    return t;
+    return std::make_pair(t, reg.getResolution() / scale);
   };
-  const Eigen::Matrix4d metres = alignAtScale(1.0);
-  EXPECT_POSE_NEAR(metres, reference);
-  for (const double scale : {0.1, 1000.0}) {
-    SCOPED_TRACE(testing::Message() << "scale " << scale);
-    const Eigen::Matrix4d t = alignAtScale(scale);
-    EXPECT_POSE_NEAR(t, reference);
-    const auto from_metres = pcl_mi::io::poseError(t, metres);
-    EXPECT_LT(from_metres.translation, 0.01);
-    EXPECT_LT(from_metres.rotation_deg, 0.05);
+  for (const bool derived : {false, true}) {
+    SCOPED_TRACE(derived ? "derived" : "set");
+    const auto [metres, resolution] = alignAtScale(1.0, derived);
+    EXPECT_POSE_NEAR(metres, reference);
+    for (const double scale : {0.125, 1024.0}) {
+      SCOPED_TRACE(testing::Message() << "scale " << scale);
+      const auto [t, scaled_resolution] = alignAtScale(scale, derived);
+      EXPECT_DOUBLE_EQ(scaled_resolution, resolution);
+      EXPECT_POSE_NEAR(t, reference);
+      const auto from_metres = pcl_mi::io::poseError(t, metres);
+      EXPECT_LT(from_metres.translation, 0.01);
+      EXPECT_LT(from_metres.rotation_deg, 0.05);
+    }
   }
 }
 
@@ -533,4 +542,40 @@ TEST(Registration, RefinementSharpensTheMutualInformationOptimum)
   }
   EXPECT_LT(error[1], 0.08);
   EXPECT_LT(error[1], error[0]);
+}
+
+// Two other sensors with the defaults: a 128-beam Ouster-class LiDAR and an OS1-64 mounted
+// backwards (later scans at -x), in both directions. The resolution is derived from each
+// target; the bounds are the 0.1 m and 0.5 deg.
+TEST(Registration, OtherSensorsAlignWithTheDefaults)
+{
+  for (const char* set : {"seosan01_ouster128", "mulran_riverside02_os1"}) {
+    const std::string dir = std::string(PCL_MI_DATA_DIR) + "/foreign_lidar/" + set + "/";
+    std::ifstream list(dir + "list.txt");
+    std::string source_name, target_name;
+    ASSERT_TRUE(list >> source_name >> target_name) << dir;
+    Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
+    for (int i = 0; i < 12; ++i)
+      ASSERT_TRUE(list >> reference(i / 4, i % 4));
+    pcl::PointCloud<pcl::PointXYZI> source_xyzi, target_xyzi;
+    ASSERT_EQ(pcl_mi::io::loadKittiBin(dir + source_name, source_xyzi), "");
+    ASSERT_EQ(pcl_mi::io::loadKittiBin(dir + target_name, target_xyzi), "");
+    auto source = pcl::make_shared<Cloud>(), target = pcl::make_shared<Cloud>();
+    pcl::copyPointCloud(source_xyzi, *source);
+    pcl::copyPointCloud(target_xyzi, *target);
+    for (const bool forward : {true, false}) {
+      SCOPED_TRACE(testing::Message() << set << (forward ? " forward" : " backward"));
+      pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+      reg.setInputSource(forward ? source : target);
+      reg.setInputTarget(forward ? target : source);
+      Cloud aligned;
+      reg.align(aligned);
+      EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+      const Eigen::Matrix4d expected = forward ? reference : Eigen::Matrix4d(reference.inverse());
+      const auto error =
+          pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), expected);
+      EXPECT_LT(error.translation, 0.1);
+      EXPECT_LT(error.rotation_deg, 0.5);
+    }
+  }
 }

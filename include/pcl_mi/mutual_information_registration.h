@@ -124,16 +124,19 @@ public:
   void
   setInputTarget(const PointCloudTargetConstPtr& cloud) override;
 
-  /** \brief Voxel edge length R_v (> 0, default 1 m). */
+  /** \brief Voxel edge length R_v (> 0), or 0 (the default) to derive it from the target's
+   * extent (pcl_mi::GridParameters::resolution). */
   void
   setResolution(double resolution)
   {
     setField("setResolution", &Params::grid, &Grid::resolution, resolution);
   }
+  /** \brief The resolution in use: the one set, or the one derived from the target (0
+   * until a target is set). */
   double
   getResolution() const
   {
-    return core_.parameters().grid.resolution;
+    return core_.effectiveParameters().grid.resolution;
   }
 
   /** \brief Voxel feature (default pcl_mi::Feature::VarianceZ). */
@@ -165,17 +168,20 @@ public:
                                                  : core_.parameters().grid.point_count_binning;
   }
 
-  /** \brief Initial simplex step per parameter [tx, ty, tz (m), roll, pitch, yaw (rad)]
-   * (default [8, 8, 1, 0.1, 0.1, 0.8]). A zero step keeps that parameter at the guess. */
+  /** \brief Initial simplex step per parameter [tx, ty, tz, roll, pitch, yaw (rad)];
+   * translations in the clouds' units, or negative in voxels (default [-8, -8, -1, 0.1, 0.1,
+   * 0.8]: 8, 8 and 1 voxels). A zero step keeps that parameter at the guess. */
   void
   setSimplexSteps(const Vector6d& steps)
   {
     setField("setSimplexSteps", &Params::search, &Search::simplex_steps, steps);
   }
+  /** \brief The steps in use, translations in the clouds' units (steps in voxels wait for
+   * the resolution: they stay negative until a target is set). */
   Vector6d
   getSimplexSteps() const
   {
-    return core_.parameters().search.simplex_steps;
+    return core_.effectiveParameters().search.simplex_steps;
   }
 
   /** \brief Also search from the mirrored simplex (all steps negated), keeping the better
@@ -256,11 +262,11 @@ public:
   {
     setField("setTranslationTolerance", &Params::search, &Search::translation_tolerance, tolerance);
   }
-  /** \brief The translation tolerance in use (0.005 m at the default 1 m resolution). */
+  /** \brief The translation tolerance in use (0.005 voxels unless set). */
   double
   getTranslationTolerance() const
   {
-    return core_.parameters().effectiveTranslationTolerance();
+    return core_.effectiveParameters().effectiveTranslationTolerance();
   }
 
   /** \brief Convergence: every simplex vertex within \a tolerance radians of the best one in
@@ -332,11 +338,11 @@ public:
   {
     setField("setRefinementResolution", &Params::refinement, &Refine::resolution, resolution);
   }
-  /** \brief The refinement cube edge in use (0.7 m at the default 1 m resolution). */
+  /** \brief The refinement cube edge in use (0.7 voxels unless set). */
   double
   getRefinementResolution() const
   {
-    return core_.parameters().effectiveRefinementResolution();
+    return core_.effectiveParameters().effectiveRefinementResolution();
   }
 
   /** \brief Replaces all parameters at once; refused (PCL_ERROR, old values kept) if any is
@@ -346,11 +352,17 @@ public:
   {
     return applyParameters(parameters, "setParameters");
   }
-  /** \brief All parameters (the iteration cap is getMaximumIterations()'s). */
+  /** \brief All parameters as set (the iteration cap is getMaximumIterations()'s). */
   const pcl_mi::Parameters&
   getParameters() const
   {
     return core_.parameters();
+  }
+  /** \brief All parameters in use with the current target: derived values resolved. */
+  const pcl_mi::Parameters&
+  getEffectiveParameters() const
+  {
+    return core_.effectiveParameters();
   }
 
   /** \brief Nelder-Mead iterations of the last align() (as NDT's getFinalNumIteration()). */

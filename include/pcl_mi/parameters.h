@@ -36,10 +36,12 @@ enum class Refinement {
 /** \brief The voxel grids: what each voxel's feature is and at which sizes. A change
  * rebuilds the target's grids and the source's samples. */
 struct GridParameters {
-  /** Voxel edge length R_v in the clouds' units (metres for KITTI). The refinement's cube
-   * edge and the translation tolerance follow it unless set; the simplex steps do not:
-   * they say how far off the guess may be. */
-  double resolution = 1.0;
+  /** Voxel edge length R_v in the clouds' units; 0 (the default) = derived from the
+   * target: the power of two nearest to its extent / 32 (in log scale), where the extent is
+   * the geometric mean of its two largest 5-95 % ranges along x, y and z (1 or 2 m for a
+   * street scan, 0.5 m for a courtyard, 0.125-0.25 m for a room; docs/method.md). The refinement's cube edge, the
+   * translation tolerance and translation steps given in voxels follow it. */
+  double resolution = 0.0;
   /** Feature used for the histograms. */
   Feature feature = Feature::VarianceZ;
   /** Binning of VarianceZ values (var(z) / resolution^2). */
@@ -93,11 +95,13 @@ struct SamplingParameters {
  * nothing. The iteration cap is the PCL base class's (setMaximumIterations()), or
  * RegistrationCore::align()'s argument. */
 struct SearchParameters {
-  /** Initial simplex step per parameter [tx, ty, tz, roll, pitch, yaw (rad)], translations
-   * in the clouds' units. They describe how far the guess may be off, not the scene, so
-   * they do not follow the resolution. A zero step pins its parameter (planar motion). */
+  /** Initial simplex step per parameter [tx, ty, tz, roll, pitch, yaw (rad)]. A positive
+   * translation step is in the clouds' units; a negative one is in voxels (-8 = 8 times the
+   * resolution in use), so that it scales with the scene. A zero step pins its parameter
+   * (planar motion). The default, 8, 8 and 1 voxels and 0.1, 0.1, 0.8 rad, is the paper's
+   * simplex at its 1 m voxels. */
   Eigen::Matrix<double, 6, 1> simplex_steps =
-      (Eigen::Matrix<double, 6, 1>() << 8.0, 8.0, 1.0, 0.1, 0.1, 0.8).finished();
+      (Eigen::Matrix<double, 6, 1>() << -8.0, -8.0, -1.0, 0.1, 0.1, 0.8).finished();
   /** Also start a second simplex with all steps negated and keep the better result. The
    * paper's simplex explores mainly along its positive steps and misses large motion in
    * the opposite direction (e.g. aligning an earlier scan onto a later one). */
@@ -203,8 +207,9 @@ struct BackendParameters {
  *
  * The cost is the paper's (Mehta, McBride, Pandey, "Robust and Fast 3D Scan Alignment using
  * Mutual Information"): 1 m voxels, variance of z, the anisotropic initial simplex
- * [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]. The defaults search it from a mirrored pair of starts
- * on a coarse-to-fine pyramid (4 m, 2 m) with a sampled source, and refine the optimum
+ * [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]. The defaults scale its voxels and translation steps
+ * with the target's extent (1 m voxels on a street scan), search it from a mirrored pair of
+ * starts on a coarse-to-fine pyramid (4 and 2 voxels) with a sampled source, and refine the optimum
  * against the target's local distributions; Parameters::paper() turns all of that off.
  */
 struct Parameters {
@@ -217,7 +222,8 @@ struct Parameters {
    * run concurrently. The result is the same for any number of threads. */
   int num_threads = 2;
 
-  /** \brief The paper's exact method: one simplex from the guess, one grid, every source
+  /** \brief The paper's exact method: 1 m voxels and the [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]
+   * simplex (nothing derived from the data), one simplex from the guess, one grid, every source
    * point in every evaluation, fixed binning ranges; no mirrored start, pyramid, restarts
    * or refinement, and no automatic position starts for a narrow field of view. */
   static Parameters

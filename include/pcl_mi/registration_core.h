@@ -5,8 +5,6 @@
 #pragma once
 
 #include <pcl_mi/parameters.h>
-
-#include <pcl_mi/parameters.h>
 #include <pcl_mi/types.h>
 
 #include <Eigen/Core>
@@ -46,9 +44,16 @@ public:
   std::string
   setParameters(const Parameters& parameters);
 
-  /** \brief The parameters in force. */
+  /** \brief The parameters as set: a resolution of 0 and translation steps in voxels
+   * (negative) where the defaults follow the target. */
   const Parameters&
   parameters() const;
+
+  /** \brief The parameters in use with the current target, derived values resolved
+   * (Parameters::grid.resolution says how); a derived resolution is 0 until a target is
+   * set. */
+  const Parameters&
+  effectiveParameters() const;
 
   /** \brief Sets the target points (non-finite points and points at exactly (0, 0, 0) are
    * skipped). Features are computed lazily, once per target and resolution/feature

@@ -86,6 +86,8 @@ Parameters
 Parameters::paper()
 {
   Parameters p;
+  p.grid.resolution = 1.0;
+  p.search.simplex_steps << 8.0, 8.0, 1.0, 0.1, 0.1, 0.8;
   p.search.symmetric_start = false;
   p.grid.pyramid_levels = 1;
   p.sampling.source_subdivision = 0;
@@ -103,8 +105,9 @@ Parameters::validate() const
   std::ostringstream s;
   const GridParameters& g = grid;
   const SearchParameters& f = search;
-  if (!(g.resolution > 0.0) || !std::isfinite(g.resolution))
-    s << "resolution must be positive and finite, got " << g.resolution;
+  if (!(g.resolution >= 0.0) || !std::isfinite(g.resolution))
+    s << "resolution must be finite and not negative (0 = derived from the target), got "
+      << g.resolution;
   else if (g.feature != Feature::VarianceZ && g.feature != Feature::PointCount)
     s << "unknown feature " << static_cast<int>(g.feature);
   else if (!validateBinning("VarianceZ", g.variance_z_binning).empty())

@@ -3,6 +3,7 @@
  */
 #include "engine/prepared_problem.h"
 
+#include "engine/derived_defaults.h"
 #include "engine/input_checks.h"
 #include "features/mutual_information.h"
 #include "util/parallel.h"
@@ -60,6 +61,20 @@ describeOutliers(const char* which, const LocalCloud& cloud, double gap)
 void
 PreparedProblem::setParameters(const Parameters& p)
 {
+  const bool derive = p.grid.resolution == 0.0;
+  if (derive && requested_.grid.resolution != 0.0 && has_target_)
+    derived_resolution_ = deriveResolution(target_input_);
+  requested_ = p;
+  resolveParameters();
+}
+
+void
+PreparedProblem::resolveParameters()
+{
+  // A target with no extent gets a placeholder resolution: prepare()'s checks then say what
+  // is wrong with it (no usable points, all at one position).
+  const double derived = derived_resolution_ > 0.0 ? derived_resolution_ : 1.0;
+  const Parameters p = core::resolveParameters(requested_, derived);
   const Parameters& old = parameters_;
   // What each group feeds: the grid everything, the sampling the source's samples, the
   // refinement the target's distributions, the backend the target's backends (and
@@ -79,6 +94,10 @@ PreparedProblem::setTarget(PointList points)
   target_input_ = std::move(points);
   has_target_ = true;
   target_dirty_ = true;
+  if (requested_.grid.resolution == 0.0) {
+    derived_resolution_ = deriveResolution(target_input_);
+    resolveParameters(); // a new resolution also makes the source's samples stale
+  }
 }
 
 void
@@ -151,8 +170,16 @@ PreparedProblem::prepare(std::string& error)
   if (new_target) {
     // Refuse a too-fine resolution up front: no coarser level needs more voxels.
     GridGeometry finest;
-    if (!makeGridGeometry(target_.points, resolution, finest, error))
-      return false;
+    if (!makeGridGeometry(target_.points, resolution, finest, error)) {
+      // A derived resolution is the engine's choice, so it coarsens where the points that
+      // survive the outlier rule do not fit; each doubling shrinks the grid eightfold.
+      if (requested_.grid.resolution != 0.0 || derived_resolution_ <= 0.0)
+        return false;
+      error.clear();
+      derived_resolution_ *= 2.0;
+      resolveParameters();
+      return prepare(error);
+    }
     levels_.clear();
     levels_.resize(static_cast<std::size_t>(num_levels));
     distributions_.reset();

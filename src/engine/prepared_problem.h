@@ -33,9 +33,18 @@ struct LocalPose {
 /** \brief The clouds and everything built from them for one parameter set. */
 class PreparedProblem {
 public:
-  /** \brief Replaces the (validated) parameters and marks what their change made stale. */
+  /** \brief Replaces the (validated) parameters as the caller gave them, derived values
+   * unresolved, and marks what their change made stale. */
   void
   setParameters(const Parameters& parameters);
+  /** \brief The parameters as given (0 and negative steps where values are derived). */
+  const Parameters&
+  requestedParameters() const
+  {
+    return requested_;
+  }
+  /** \brief The parameters in use: derived values resolved for the current target
+   * (derived_defaults.h); a derived resolution stays 0 until a target is set. */
   const Parameters&
   parameters() const
   {
@@ -127,6 +136,9 @@ private:
     std::unique_ptr<backend::ScoringBackend> slots[2];
   };
 
+  /** Resolves requested_ for the current target and marks what the change made stale. */
+  void
+  resolveParameters();
   backend::ScoringBackend&
   backend(int level, int slot);
   void
@@ -136,7 +148,9 @@ private:
   FeatureBinning
   levelBinning(double level_resolution) const;
 
-  Parameters parameters_;
+  Parameters requested_, parameters_;
+  /** deriveResolution() of the target; 0 while not needed or without a target. */
+  double derived_resolution_ = 0.0;
   PointList target_input_, source_input_;
   bool has_target_ = false, has_source_ = false;
   bool target_dirty_ = true, source_dirty_ = true;

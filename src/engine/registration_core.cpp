@@ -84,6 +84,12 @@ RegistrationCore::setParameters(const Parameters& parameters)
 const Parameters&
 RegistrationCore::parameters() const
 {
+  return impl_->problem.requestedParameters();
+}
+
+const Parameters&
+RegistrationCore::effectiveParameters() const
+{
   return impl_->problem.parameters();
 }
 
