@@ -204,10 +204,10 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   EXPECT_EQ(reg.getFeatureBinning(pcl_mi::Feature::PointCount).num_bins, 16);
 
   reg.setSimplexSteps(Eigen::Matrix<double, 6, 1>::Zero());
-  // The default translation steps are 8, 8 and 1 voxels: 4, 4 and 0.5 at 0.5 m.
-  EXPECT_EQ(reg.getSimplexSteps()[0], 4.0);
-  EXPECT_EQ(reg.getSimplexSteps()[2], 0.5);
-  EXPECT_EQ(reg.getParameters().search.simplex_steps[0], -8.0);
+  // The default translation steps are 16, 16 and 4 voxels: 8, 8 and 2 at 0.5 m.
+  EXPECT_EQ(reg.getSimplexSteps()[0], 8.0);
+  EXPECT_EQ(reg.getSimplexSteps()[2], 2.0);
+  EXPECT_EQ(reg.getParameters().search.simplex_steps[0], -16.0);
   // Lengths tied to the grid follow the resolution (0.5 here) until they are set; 0
   // returns them to following it.
   EXPECT_EQ(reg.getTranslationTolerance(), 0.0025);

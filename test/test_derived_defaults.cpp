@@ -99,12 +99,12 @@ TEST(DerivedDefaults, NothingToDeriveFrom)
 
 TEST(DerivedDefaults, StepsInVoxelsFollowTheResolution)
 {
-  pcl_mi::Parameters requested; // default: resolution 0, steps -8, -8, -1 voxels
+  pcl_mi::Parameters requested; // default: resolution 0, steps -16, -16, -4 voxels
   const pcl_mi::Parameters resolved = pcl_mi::core::resolveParameters(requested, 0.25);
   EXPECT_EQ(resolved.grid.resolution, 0.25);
-  EXPECT_EQ(resolved.search.simplex_steps[0], 2.0);
-  EXPECT_EQ(resolved.search.simplex_steps[1], 2.0);
-  EXPECT_EQ(resolved.search.simplex_steps[2], 0.25);
+  EXPECT_EQ(resolved.search.simplex_steps[0], 4.0);
+  EXPECT_EQ(resolved.search.simplex_steps[1], 4.0);
+  EXPECT_EQ(resolved.search.simplex_steps[2], 1.0);
   EXPECT_EQ(resolved.search.simplex_steps.tail<3>(), requested.search.simplex_steps.tail<3>());
   EXPECT_EQ(resolved.effectiveTranslationTolerance(), 0.005 * 0.25);
   EXPECT_EQ(resolved.effectiveRefinementResolution(), 0.7 * 0.25);
@@ -116,7 +116,7 @@ TEST(DerivedDefaults, StepsInVoxelsFollowTheResolution)
   const pcl_mi::Parameters set = pcl_mi::core::resolveParameters(requested, 0.25);
   EXPECT_EQ(set.grid.resolution, 0.5);
   EXPECT_EQ(set.search.simplex_steps[0], 3.0);
-  EXPECT_EQ(set.search.simplex_steps[1], 4.0);
+  EXPECT_EQ(set.search.simplex_steps[1], 8.0);
   EXPECT_EQ(set.search.simplex_steps[2], 0.0);
   EXPECT_TRUE(pcl_mi::Parameters::paper().search.simplex_steps.head<3>().minCoeff() > 0.0);
   EXPECT_EQ(pcl_mi::Parameters::paper().grid.resolution, 1.0);

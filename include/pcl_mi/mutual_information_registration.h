@@ -61,7 +61,8 @@ public:
       shared_ptr<const MutualInformationRegistration<PointSource, PointTarget, Scalar>>;
   using Vector6d = Eigen::Matrix<double, 6, 1>;
 
-  /** \brief Paper defaults: 1 m voxels, VarianceZ, simplex [8, 8, 1 m, 0.1, 0.1, 0.8 rad]. */
+  /** \brief The defaults of pcl_mi::Parameters: voxels and translation steps derived from
+   * the target's extent, VarianceZ, rotation steps [0.1, 0.1, 0.8 rad]. */
   MutualInformationRegistration();
   ~MutualInformationRegistration() override;
 
@@ -169,8 +170,8 @@ public:
   }
 
   /** \brief Initial simplex step per parameter [tx, ty, tz, roll, pitch, yaw (rad)];
-   * translations in the clouds' units, or negative in voxels (default [-8, -8, -1, 0.1, 0.1,
-   * 0.8]: 8, 8 and 1 voxels). A zero step keeps that parameter at the guess. */
+   * translations in the clouds' units, or negative in voxels (default [-16, -16, -4, 0.1, 0.1,
+   * 0.8]: 16, 16 and 4 voxels). A zero step keeps that parameter at the guess. */
   void
   setSimplexSteps(const Vector6d& steps)
   {

@@ -98,10 +98,12 @@ struct SearchParameters {
   /** Initial simplex step per parameter [tx, ty, tz, roll, pitch, yaw (rad)]. A positive
    * translation step is in the clouds' units; a negative one is in voxels (-8 = 8 times the
    * resolution in use), so that it scales with the scene. A zero step pins its parameter
-   * (planar motion). The default, 8, 8 and 1 voxels and 0.1, 0.1, 0.8 rad, is the paper's
-   * simplex at its 1 m voxels. */
+   * (planar motion). The default is 16, 16 and 4 voxels and the paper's 0.1, 0.1, 0.8 rad:
+   * twice the paper's 8 m, 8 m, 1 m at its 1 m voxels horizontally and four times
+   * vertically, which a street scan does not need but a handheld scan's courtyard or room
+   * does (docs/method.md gives the measurements). */
   Eigen::Matrix<double, 6, 1> simplex_steps =
-      (Eigen::Matrix<double, 6, 1>() << -8.0, -8.0, -1.0, 0.1, 0.1, 0.8).finished();
+      (Eigen::Matrix<double, 6, 1>() << -16.0, -16.0, -4.0, 0.1, 0.1, 0.8).finished();
   /** Also start a second simplex with all steps negated and keep the better result. The
    * paper's simplex explores mainly along its positive steps and misses large motion in
    * the opposite direction (e.g. aligning an earlier scan onto a later one). */
@@ -252,7 +254,7 @@ struct Parameters {
 };
 
 /** \brief Default Nelder-Mead iteration cap, summed over all starts and restarts. */
-constexpr int kDefaultMaxIterations = 1000;
+constexpr int kDefaultMaxIterations = 2000;
 
 /** \brief Empty when \a max_iterations is a usable iteration cap (at least 1), else why. */
 std::string

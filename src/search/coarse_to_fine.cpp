@@ -209,9 +209,13 @@ public:
         winner = i;
     }
     // A capped candidate that wins before its search converged is finished from where it
-    // got.
-    if (winner > 0 && !from[winner].converged && budget_ > 0)
-      account(search(level, 0, {from[winner].x, 0.5 * steps, budget_}));
+    // got; its result stands even where it only ties, since it carries the convergence.
+    if (winner > 0 && !from[winner].converged && budget_ > 0) {
+      const NelderMeadResult finished = search(level, 0, {from[winner].x, 0.5 * steps, budget_});
+      account(finished);
+      if (finished.value <= result_.best.value)
+        result_.best = finished;
+    }
   }
 
   /** Restarts around the best vertex with simplices of alternating orientation. */

@@ -440,11 +440,19 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
     final_transformation_ = result_.transformation.template cast<Scalar>();
     converged_ = result_.converged;
     nr_iterations_ = result_.iterations;
-    last_error_ = converged_ ? std::string()
-                             : "not converged: the iteration cap (setMaximumIterations(" +
-                                   std::to_string(max_iterations_) +
-                                   ")) ended the search before the simplex met its "
-                                   "tolerances; the final transformation is the best one found";
+    if (converged_)
+      last_error_.clear();
+    else if (nr_iterations_ >= max_iterations_)
+      last_error_ = "not converged: the iteration cap (setMaximumIterations(" +
+                    std::to_string(max_iterations_) +
+                    ")) ended the search before the simplex met its tolerances; the final "
+                    "transformation is the best one found";
+    else
+      last_error_ = "not converged: the best search stopped at its share of the iteration cap "
+                    "(setMaximumIterations(" +
+                    std::to_string(max_iterations_) +
+                    ")) before the simplex met its tolerances; the final transformation is "
+                    "the best one found";
   }
   transformation_ = final_transformation_;
   previous_transformation_ = final_transformation_;
