@@ -174,6 +174,7 @@ struct Result {
   int iterations = 0;
   int evaluations = 0;
   double seconds = 0.0;
+  double resolution = 0.0;
   std::vector<std::string> warnings;
 };
 
@@ -220,6 +221,7 @@ public:
     r.iterations = result.iterations;
     r.evaluations = result.evaluations;
     r.seconds = seconds;
+    r.resolution = core_.effectiveParameters().grid.resolution;
     r.warnings = result.warnings;
     return r;
   }
@@ -259,6 +261,8 @@ PYBIND11_MODULE(pcl_mi, m)
       .def_readonly("iterations", &Result::iterations, "Nelder-Mead iterations")
       .def_readonly("evaluations", &Result::evaluations, "cost evaluations")
       .def_readonly("seconds", &Result::seconds, "wall-clock time of the alignment")
+      .def_readonly("resolution", &Result::resolution,
+                    "voxel size used: the one set, or the one derived from the target")
       .def_readonly("warnings", &Result::warnings, "what did not stop the alignment")
       .def("__repr__", [](const Result& r) {
         return "<pcl_mi.Result converged=" + std::string(r.converged ? "True" : "False") +

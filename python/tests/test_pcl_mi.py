@@ -91,6 +91,15 @@ def test_scan_to_map_reuses_the_target():
         first.mutual_information, rel=1e-12)
 
 
+def test_resolution_is_derived_unless_set(pair):
+    source, target, _ = pair
+    assert pcl_mi.align(source, target).resolution == 1.0  # a street scan keeps 1 m
+    assert pcl_mi.align(source, target, resolution=2.0).resolution == 2.0
+    # The same scans in units of 1/8 m: the derived voxel follows the units.
+    scaled = pcl_mi.align(source[:, :3] * 8, target[:, :3] * 8)
+    assert scaled.resolution == 8.0
+
+
 def test_parameters_by_name(pair):
     source, target, truth = pair
     result = pcl_mi.align(source, target, resolution=1.0, feature="count", pyramid_levels=3,
