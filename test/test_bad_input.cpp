@@ -186,6 +186,10 @@ TEST(BadParameters, SettersRefuseAndKeepTheOldValue)
   // The default resolution is derived from the target: unknown (0) until one is set.
   EXPECT_EQ(reg.getParameters().grid.resolution, 0.0);
   EXPECT_EQ(reg.getResolution(), 0.0);
+  reg.setNumberOfRestarts(1); // another setter leaves it unknown
+  EXPECT_EQ(reg.getResolution(), 0.0);
+  EXPECT_EQ(reg.getSimplexSteps()[0], -16.0);
+  reg.setNumberOfRestarts(0);
   reg.setResolution(0.5);
   reg.setResolution(-2.0);
   EXPECT_EQ(reg.getResolution(), 0.5);

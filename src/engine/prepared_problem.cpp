@@ -72,8 +72,8 @@ void
 PreparedProblem::resolveParameters()
 {
   // A target with no extent gets a placeholder resolution: prepare()'s checks then say what
-  // is wrong with it (no usable points, all at one position).
-  const double derived = derived_resolution_ > 0.0 ? derived_resolution_ : 1.0;
+  // is wrong with it (no usable points, all at one position). Without a target it stays 0.
+  const double derived = derived_resolution_ > 0.0 || !has_target_ ? derived_resolution_ : 1.0;
   const Parameters p = core::resolveParameters(requested_, derived);
   const Parameters& old = parameters_;
   // What each group feeds: the grid everything, the sampling the source's samples, the
