@@ -93,7 +93,7 @@ TEST(DerivedDefaults, NothingToDeriveFrom)
   // Points on a line take their length: 64 m / 32 = 2 m.
   PointList line;
   for (int i = 0; i <= 640; ++i)
-    line.emplace_back(0.1f * static_cast<float>(i) * 1.0f / 0.9f, 0.0f, 0.0f);
+    line.emplace_back(0.1f * static_cast<float>(i) / 0.9f, 0.0f, 0.0f);
   EXPECT_EQ(deriveResolution(line), 2.0);
 }
 

@@ -35,20 +35,18 @@ rigidTransformError(const Eigen::Matrix4d& m, double tolerance)
   return s.str();
 }
 
-std::string
-resolutionError(const PointList& points, double resolution, const char* which)
+bool
+bulkExtent(const PointList& points, bool skip_origin, Eigen::Vector3d& extent)
 {
   constexpr std::size_t kSamples = 4096;
   std::vector<float> axis[3];
   const std::size_t stride = std::max<std::size_t>(1, points.size() / kSamples);
   for (std::size_t i = 0; i < points.size(); i += stride)
-    if (points[i].allFinite())
+    if (points[i].allFinite() && !(skip_origin && points[i].isZero()))
       for (int a = 0; a < 3; ++a)
         axis[a].push_back(points[i][a]);
   if (axis[0].empty())
-    return {};
-  double cells = 1.0;
-  Eigen::Vector3d extent;
+    return false;
   for (int a = 0; a < 3; ++a) {
     std::vector<float>& v = axis[a];
     const auto low = v.begin() + static_cast<std::ptrdiff_t>(0.05 * (v.size() - 1));
@@ -57,8 +55,19 @@ resolutionError(const PointList& points, double resolution, const char* which)
     const auto high = v.begin() + static_cast<std::ptrdiff_t>(0.95 * (v.size() - 1));
     std::nth_element(v.begin(), high, v.end());
     extent[a] = static_cast<double>(*high) - lo;
-    cells *= std::floor(extent[a] / resolution) + 1.0;
   }
+  return true;
+}
+
+std::string
+resolutionError(const PointList& points, double resolution, const char* which)
+{
+  Eigen::Vector3d extent;
+  if (!bulkExtent(points, false, extent))
+    return {};
+  double cells = 1.0;
+  for (int a = 0; a < 3; ++a)
+    cells *= std::floor(extent[a] / resolution) + 1.0;
   if (cells <= static_cast<double>(kMaxGridCells))
     return {};
   // The coarsest resolution at which the bulk fits: cells ~ prod(extent / r).

@@ -28,6 +28,12 @@ constexpr double kMinimumSpreadVoxels = 0.5;
 std::string
 rigidTransformError(const Eigen::Matrix4d& m, double tolerance = 1e-4);
 
+/** \brief The bulk of \a points: the 5-95 % range along x, y and z of an even sample of
+ * 4096 of them, so far outliers do not count; false when the sample holds no finite point
+ * (counting points at exactly (0, 0, 0) only unless \a skip_origin). */
+bool
+bulkExtent(const PointList& points, bool skip_origin, Eigen::Vector3d& extent);
+
 /** \brief Empty when a grid at \a resolution can cover the bulk of \a points (the 5-95 %
  * range of a sample on every axis, so far outliers do not count); otherwise a message that
  * names the resolution as too fine and the coarsest one that would fit. Run before the

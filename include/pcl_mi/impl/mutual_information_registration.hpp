@@ -440,19 +440,17 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
     final_transformation_ = result_.transformation.template cast<Scalar>();
     converged_ = result_.converged;
     nr_iterations_ = result_.iterations;
-    if (converged_)
-      last_error_.clear();
-    else if (nr_iterations_ >= max_iterations_)
-      last_error_ = "not converged: the iteration cap (setMaximumIterations(" +
-                    std::to_string(max_iterations_) +
-                    ")) ended the search before the simplex met its tolerances; the final "
-                    "transformation is the best one found";
-    else
-      last_error_ = "not converged: the best search stopped at its share of the iteration cap "
-                    "(setMaximumIterations(" +
-                    std::to_string(max_iterations_) +
-                    ")) before the simplex met its tolerances; the final transformation is "
-                    "the best one found";
+    last_error_.clear();
+    if (!converged_) {
+      const std::string cap = "(setMaximumIterations(" + std::to_string(max_iterations_) + "))";
+      const std::string cause =
+          nr_iterations_ >= max_iterations_
+              ? "the iteration cap " + cap + " ended the search"
+              : "the best search stopped at its share of the iteration cap " + cap;
+      last_error_ = "not converged: " + cause +
+                    " before the simplex met its tolerances; the final transformation is the "
+                    "best one found";
+    }
   }
   transformation_ = final_transformation_;
   previous_transformation_ = final_transformation_;
