@@ -281,8 +281,18 @@ run(int argc, char** argv)
   print_info(", time: ");
   print_value("%.3f s\n", seconds);
   print_info("Converged: ");
-  print_value("%s\n", reg.hasConverged() ? "yes (simplex met its tolerance)"
-                                         : "no (iteration cap reached)");
+  print_value("%s\n", reg.hasConverged() ? "yes (search converged, result verified)"
+                                         : ("no: " + reg.getLastError()).c_str());
+  print_info("Confidence: ");
+  print_value("%.3f", reg.getConfidence());
+  print_info(" (probability of < 0.5 m and < 2 deg)\n");
+  const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
+  if (covariance.diagonal().maxCoeff() > 0.0) {
+    const Eigen::Matrix<double, 6, 1> sd = covariance.diagonal().cwiseSqrt();
+    print_info("Standard deviations: ");
+    print_value("x %.3f, y %.3f, z %.3f m; roll %.3f, pitch %.3f, yaw %.3f deg\n", sd[0], sd[1],
+                sd[2], sd[3] * 180.0 / M_PI, sd[4] * 180.0 / M_PI, sd[5] * 180.0 / M_PI);
+  }
   if (reg.getLastResult().position_starts > 0) {
     print_info("Position starts: ");
     print_value("%d%s\n", reg.getLastResult().position_starts,

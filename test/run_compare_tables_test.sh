@@ -21,6 +21,9 @@ expect '^1-2 m +100\.0 +0\.0 +2$'
 # Summary: 3 rows each; gicp 1 of 3 succeeds; median times 0.6 and 3.0 -> ratio 5.0x.
 expect '^mi-varz +3 +100\.0% +0\.150 '
 expect '^gicp +3 +33\.3% +1\.400 .* 5\.0x$'
+# Verdict: every row says converged; 2 of gicp's 3 miss the bound, its 1 right row said converged.
+expect '^mi-varz +3 +0\.0% +3 +100\.0%$'
+expect '^gicp +3 +66\.7% +1 +100\.0%$'
 # Rows without the signed error columns have no bias table.
 if echo "$out" | grep -q "Mean signed"; then echo "bias table from rows without it"; exit 1; fi
 
@@ -37,5 +40,6 @@ if echo "$out" | grep -q '^gicp +backward'; then echo "gicp has no backward rows
 merged=$(mktemp)
 trap 'rm -f "$merged"' EXIT
 "$1" -merge "$2" "$3" -csv "$merged" > /dev/null
-test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 41
-test "$(grep -c ',nan,' "$merged")" -eq 6
+test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 48
+# Every row lacks a value somewhere: the old rows their poses, all of them MI's confidence.
+test "$(grep -c ',nan,' "$merged")" -eq 10

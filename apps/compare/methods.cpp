@@ -14,6 +14,7 @@
 #include <pcl/registration/ndt.h>
 
 #include <chrono>
+#include <cmath>
 
 namespace pcl_mi {
 namespace compare {
@@ -165,8 +166,13 @@ runMethod(const std::string& chain,
   o.rotation_error = e.rotation_deg;
   o.converged = reg->hasConverged();
   o.evaluations = previous.evaluations;
-  if (auto* mi = dynamic_cast<pcl::MutualInformationRegistration<pcl::PointXYZ>*>(reg.get()))
+  if (auto* mi = dynamic_cast<pcl::MutualInformationRegistration<pcl::PointXYZ>*>(reg.get())) {
     o.evaluations = mi->getNumberOfEvaluations();
+    const pcl_mi::Verification& v = mi->getVerification();
+    o.confidence = v.confidence;
+    for (int i = 0; i < 6; ++i)
+      o.sigma[i] = std::sqrt(v.covariance(i, i)) * (i < 3 ? 1.0 : 180.0 / M_PI);
+  }
   return o;
 }
 

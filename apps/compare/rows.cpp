@@ -19,7 +19,8 @@ using pcl_mi::apps::split;
 
 namespace {
 constexpr std::size_t kLegacyFields = 14;
-constexpr std::size_t kFields = kLegacyFields + 3 + 2 * 12;
+constexpr std::size_t kPoseFields = kLegacyFields + 3 + 2 * 12;
+constexpr std::size_t kFields = kPoseFields + 7;
 } // namespace
 
 /** The first 14 columns are the original format, which readRows() still accepts; the columns
@@ -38,6 +39,7 @@ csvHeader(bool with_poses)
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c)
         h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
+  h += ",confidence,sd_x_m,sd_y_m,sd_z_m,sd_roll_deg,sd_pitch_deg,sd_yaw_deg";
   return h;
 }
 
@@ -73,6 +75,9 @@ writeRow(std::ostream& out, const Row& r)
       for (int j = 0; j < 4; ++j)
         out << ',' << (*m)(i, j);
   out.precision(precision);
+  out << ',' << r.confidence;
+  for (double sd : r.sigma)
+    out << ',' << sd;
   out << '\n';
 }
 
@@ -90,7 +95,8 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
   const std::string legacy_header = csvHeader(false), header = csvHeader(true);
   while (std::getline(in, line)) {
     ++number;
-    if (line.empty() || line == legacy_header || line == header)
+    if (line.empty() || line == legacy_header || line == header ||
+        line == header.substr(0, header.find(",confidence")))
       continue;
     std::vector<std::string> f;
     std::stringstream ss(line);
@@ -98,7 +104,7 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
     while (std::getline(ss, item, ','))
       f.push_back(item);
     try {
-      if (f.size() != kLegacyFields && f.size() != kFields)
+      if (f.size() != kLegacyFields && f.size() != kPoseFields && f.size() != kFields)
         throw std::invalid_argument("field count");
       Row r;
       r.sequence = f[0];
@@ -115,7 +121,7 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
       r.seconds = std::stod(f[11]);
       r.converged = f[12] == "1";
       r.evaluations = std::stoi(f[13]);
-      if (f.size() == kFields) {
+      if (f.size() >= kPoseFields) {
         std::size_t k = kLegacyFields;
         for (int i = 0; i < 3; ++i)
           r.travel_error[i] = std::stod(f[k++]);
@@ -124,6 +130,11 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
           for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 4; ++j)
               (*m)(i, j) = std::stod(f[k++]);
+        }
+        if (f.size() == kFields) {
+          r.confidence = std::stod(f[k++]);
+          for (double& sd : r.sigma)
+            sd = std::stod(f[k++]);
         }
       }
       rows.push_back(r);

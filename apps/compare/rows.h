@@ -33,6 +33,10 @@ struct Row {
   /** The result and the reference, source to target (NaN in rows of older files). */
   Eigen::Matrix4d estimate = Eigen::Matrix4d::Constant(NAN);
   Eigen::Matrix4d reference = Eigen::Matrix4d::Constant(NAN);
+  /** MI's confidence and the standard deviations of its covariance (m, deg: x y z roll pitch
+   * yaw); NaN for other methods and in rows of older files. */
+  double confidence = NAN;
+  double sigma[6] = {NAN, NAN, NAN, NAN, NAN, NAN};
 };
 
 /** The CSV header; \a with_poses adds the travel-frame errors and both transforms. */

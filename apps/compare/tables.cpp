@@ -32,6 +32,34 @@ succeeded(const Row& r, const std::vector<double>& bound)
   return r.translation_error < bound[0] && r.rotation_error < bound[1];
 }
 
+/** How far each method's hasConverged() can be trusted: of the results that said converged,
+ * the share that missed the bound (1 - precision), and of the results within the bound, the
+ * share that said converged (recall). */
+void
+printVerdict(const std::vector<Row>& rows,
+             const std::vector<std::string>& methods,
+             const std::vector<double>& bound)
+{
+  std::printf("\nVerdict (hasConverged) against the success bound\n%-14s %9s %9s %9s %9s\n",
+              "method", "converged", "wrong", "right", "recall");
+  for (const auto& m : methods) {
+    int said = 0, wrong = 0, right = 0, found = 0;
+    for (const auto& r : rows) {
+      if (r.method != m)
+        continue;
+      const bool ok = succeeded(r, bound);
+      said += r.converged;
+      wrong += r.converged && !ok;
+      right += ok;
+      found += r.converged && ok;
+    }
+    std::printf("%-14s %9d %8.1f%% %9d %8.1f%%\n", m.c_str(), said,
+                said ? 100.0 * wrong / said : 0.0, right, right ? 100.0 * found / right : 0.0);
+  }
+  std::printf("(wrong: share of the converged results outside the bound; recall: share of the "
+              "results within it that said converged)\n");
+}
+
 /** Width of the summary tables' method column: the longest name, at least 14. */
 int
 methodColumnWidth(const std::vector<std::string>& methods)
@@ -200,6 +228,7 @@ printTables(const std::vector<Row>& rows,
   }
   std::printf("(errors in m and deg; vs_first: median time relative to %s)\n",
               methods.front().c_str());
+  printVerdict(rows, methods, bound);
   printBias(rows, methods, bound);
 }
 

@@ -36,9 +36,12 @@ namespace pcl {
  * \endcode
  *
  * hasConverged() is true only when the simplex shrank below the tolerances
- * (setTranslationTolerance(), setRotationTolerance()); hitting the iteration cap
- * (setMaximumIterations()) or any failure leaves it false. Failures are reported with
- * PCL_ERROR and getLastError(); no exception leaves align().
+ * (setTranslationTolerance(), setRotationTolerance()) and the result passed the
+ * reliability test: enough source samples on the target's surfaces, no direction the
+ * surfaces leave free, and getConfidence() >= 0.9 (docs/method.md, "The verdict").
+ * Hitting the iteration cap (setMaximumIterations()), a failed test or any failure leaves
+ * it false, with the reason in getLastError(). Failures are reported with PCL_ERROR; no
+ * exception leaves align().
  *
  * Non-finite points, points at exactly (0, 0, 0) (many drivers' "no return") and far
  * outliers are skipped (docs/hardening.md).
@@ -399,8 +402,35 @@ public:
     return result_;
   }
 
+  /** \brief Probability (0 to 1) that the last result is within 0.5 m and 2 degrees of the
+   * true pose, calibrated on real scans of several sensors (docs/method.md, "The verdict");
+   * 0 after a failure. hasConverged() requires at least 0.9. */
+  double
+  getConfidence() const
+  {
+    return result_.verification.confidence;
+  }
+
+  /** \brief Covariance of the last result's error as a left increment [tx, ty, tz, roll,
+   * pitch, yaw] (m, rad) in the target frame, rotations about its origin: the true pose is
+   * about exp(increment) * getFinalTransformation(). Zero when the result is degenerate. */
+  Eigen::Matrix<double, 6, 6>
+  getCovariance() const
+  {
+    return result_.verification.covariance;
+  }
+
+  /** \brief The evidence behind the verdict: inliers, contrast, observability per direction
+   * (getLastResult().verification). */
+  const pcl_mi::Verification&
+  getVerification() const
+  {
+    return result_.verification;
+  }
+
   /** \brief Why the last align() failed (the pose stays the guess) or did not converge
-   * (the iteration cap ended it; the pose is the best found). getLastResult().error: failures. */
+   * (the search hit the iteration cap, or the result failed the reliability test; the pose
+   * is the best found). getLastResult().error: failures. */
   const std::string&
   getLastError() const
   {

@@ -9,6 +9,8 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
+
 #include <cstdint>
 #include <ostream>
 #include <string>
@@ -82,13 +84,60 @@ struct StageTiming {
   double total_ms = 0.0; ///< wall-clock milliseconds, summed over calls
 };
 
+/** \brief The evidence for and against one result, and what it implies (docs/method.md,
+ * "The verdict"). Pose increments are [tx, ty, tz, roll, pitch, yaw]: a small motion
+ * applied on the left of the result (in the target frame, rotations about its origin) that
+ * would carry it onto the true pose. The matrices are unaligned, so code built with other
+ * vectorisation flags than the library (e.g. -march=native) shares this layout. */
+struct Verification {
+  /** Probability that the result is within 0.5 m and 2 degrees of the true pose, from a
+   * logistic model of the evidence below fitted on real scans of several sensors. */
+  double confidence = 0.0;
+  /** Empty when the result passes the reliability test, otherwise why not. */
+  std::string reason;
+  /** Share of the source samples that fall into a target cube with a surface. */
+  double overlap = 0.0;
+  /** Share of those within three standard deviations of the cube's surface (inliers). */
+  double inlier_fraction = 0.0;
+  /** Number of inlier samples. */
+  std::size_t inliers = 0;
+  /** Mean share of the inliers lost by moving the result one voxel along an axis, or turning
+   * it so far that a point at the source's RMS radius moves one voxel: a true optimum is a
+   * sharp peak. */
+  double peak_contrast = 0.0;
+  /** The same in the direction that loses the fewest (near 0 where the scene leaves the
+   * pose free, negative where a neighbour scores better). */
+  double weakest_contrast = 0.0;
+  /** MI divided by the smaller of the two marginal entropies, over the overlap. */
+  double normalized_mi = 0.0;
+  /** Eigenvalues (ascending) of the point-to-plane information of the inliers, rotations
+   * scaled by the source's RMS radius (a unit of rotation moves a point at that radius by a
+   * unit of length), each divided by the largest: small in a direction the surfaces
+   * constrain little. */
+  Eigen::Matrix<double, 6, 1, Eigen::DontAlign> observability =
+      Eigen::Matrix<double, 6, 1, Eigen::DontAlign>::Zero();
+  /** The matching unit eigenvectors (columns) in the scaled increments. */
+  Eigen::Matrix<double, 6, 6, Eigen::DontAlign> observability_directions =
+      Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Identity();
+  /** Share of the inliers lost by moving the result one voxel either way along each of the
+   * two least observable directions; below 0.05 the direction counts as free (degenerate). */
+  double free_direction_contrast[2] = {0.0, 0.0};
+  /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
+   * the inliers' residuals; zero where the information is singular. */
+  Eigen::Matrix<double, 6, 6, Eigen::DontAlign> covariance =
+      Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Zero();
+};
+
 /** \brief Outcome of one alignment. */
 struct AlignmentResult {
   /** Source-to-target transformation (maps source points into the target frame). */
   Eigen::Matrix4d transformation = Eigen::Matrix4d::Identity();
-  /** True only when the simplex shrank below the tolerances; false when the iteration
-   * cap was hit or the alignment failed. */
+  /** True only when the search converged and the result passed the reliability test
+   * (verification.reason is empty); false when the iteration cap ended the search, the
+   * evidence does not support the result, or the alignment failed. */
   bool converged = false;
+  /** True when the simplex shrank below the tolerances, whatever the verification says. */
+  bool search_converged = false;
   /** Nelder-Mead iterations performed. */
   int iterations = 0;
   /** Cost (mutual information) evaluations performed. */
@@ -108,6 +157,8 @@ struct AlignmentResult {
   /** Where the time went, stage by stage in the order they ran. Concurrent searches are
    * one stage; its time is wall-clock. */
   std::vector<StageTiming> stages;
+  /** The evidence for and against the result. */
+  Verification verification;
 };
 
 } // namespace pcl_mi

@@ -189,7 +189,8 @@ PreparedProblem::prepare(std::string& error)
   std::vector<std::function<void()>> tasks;
   if (new_source)
     tasks.emplace_back([this] { buildSourceSamples(); });
-  if (new_target && parameters_.refinement.method == Refinement::PointToDistribution)
+  // The distributions also serve the verification, which runs with or without a refinement.
+  if (new_target)
     tasks.emplace_back([this, resolution] {
       distributions_ = std::make_unique<TargetDistributions>(
           target_.points, parameters_.effectiveRefinementResolution(), kRefinementMinimumPoints,

@@ -11,6 +11,7 @@
 #include "engine/search_space.h"
 #include "search/coarse_to_fine.h"
 #include "util/stage_clock.h"
+#include "verify/verification.h"
 #ifdef PCL_MI_WITH_OPENCL
 #include "backend/opencl_backend.h"
 #endif
@@ -153,7 +154,6 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.position_starts = options.position_starts;
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
-  result.converged = found.best.converged;
   result.mutual_information = -found.best.value;
   result.transformation = space.pose(found.best.x);
 
@@ -164,9 +164,20 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     if (refined.accepted) {
       result.refinement_iterations = refined.iterations;
       result.transformation = refined.transformation;
-      result.mutual_information = problem.mutualInformation(result.transformation, impl_->scratch);
     }
   }
+
+  // The verdict: the search's convergence says nothing about whether the optimum is the
+  // true pose; the target's surfaces do.
+  core::StageClock verification_clock;
+  result.mutual_information = problem.mutualInformation(result.transformation, impl_->scratch);
+  const core::LocalPose at = problem.toLocal(result.transformation);
+  result.verification = core::verifyPose(
+      problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
+      problem.levelResolution(0), impl_->scratch, problem.target().centroid);
+  result.search_converged = found.best.converged;
+  result.converged = result.search_converged && result.verification.reason.empty();
+  verification_clock.end(result.stages, "verification", 1);
   return result;
 }
 

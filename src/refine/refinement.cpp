@@ -218,6 +218,7 @@ TargetDistributions::TargetDistributions(const PointList& points,
     const auto own = principalAxes(c);
     const Eigen::Vector3d& spread = own.eigenvalues();
     Eigen::Matrix3d flattened;
+    Eigen::Vector3d normal = own.eigenvectors().col(0);
     bool pooled_normal = false;
     if (spread[1] < strip_variance_ratio * spread[2]) {
       // A strip fixes no plane. Take the orientation of the points of its 3x3x3 cubes,
@@ -227,7 +228,7 @@ TargetDistributions::TargetDistributions(const PointList& points,
           principalAxes(neighbourhoodCovariance(cells, cell_slots, cell_mask, s, inv_cell_));
       const Eigen::Vector3d& pooled_spread = pooled.eigenvalues();
       if (pooled_spread[1] * spread[2] > spread[1] * pooled_spread[2]) {
-        const Eigen::Vector3d normal = pooled.eigenvectors().col(0);
+        normal = pooled.eigenvectors().col(0);
         const Eigen::Matrix3d across = normal * normal.transpose();
         flattened = across * normal.dot(c * normal) +
                     (Eigen::Matrix3d::Identity() - across) * std::max(spread[2], in_surface_floor);
@@ -238,7 +239,7 @@ TargetDistributions::TargetDistributions(const PointList& points,
       flattened = flattenedCovariance(own.eigenvectors(), spread, in_surface_floor);
     Eigen::Matrix3f covariance = flattened.cast<float>();
     covariance.diagonal().array() += noise;
-    distributions_.push_back({s.position, covariance.inverse()});
+    distributions_.push_back({s.position, covariance.inverse(), normal.cast<float>()});
   }
   mask_ = makeSlots(table_, distributions_.size());
   for (std::size_t i = 0; i < distributions_.size(); ++i) {

@@ -43,10 +43,11 @@ public:
   find(const Eigen::Vector3f& p) const;
 
   /** \brief Mean and inverse covariance of one cube's points, side by side so a lookup
-   * touches one cache line. */
+   * touches one cache line, and the surface normal the covariance is flattened across. */
   struct Distribution {
     Eigen::Vector3f mean;
     Eigen::Matrix3f information;
+    Eigen::Vector3f normal;
   };
 
   std::size_t

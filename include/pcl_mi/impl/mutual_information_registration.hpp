@@ -441,7 +441,11 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
     converged_ = result_.converged;
     nr_iterations_ = result_.iterations;
     last_error_.clear();
-    if (!converged_) {
+    if (!converged_ && result_.search_converged) {
+      last_error_ = "not converged: " + result_.verification.reason +
+                    "; the final transformation is the best one found";
+    }
+    else if (!converged_) {
       const std::string cap = "(setMaximumIterations(" + std::to_string(max_iterations_) + "))";
       const std::string cause =
           nr_iterations_ >= max_iterations_

@@ -1,0 +1,54 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "verify/pose_evidence.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+
+namespace pcl_mi {
+namespace core {
+
+PoseEvidence
+gatherPoseEvidence(const TargetDistributions& target,
+                   const SourceSamples& source,
+                   const Eigen::Matrix3d& rotation,
+                   const Eigen::Vector3d& translation,
+                   std::size_t stride,
+                   bool with_information)
+{
+  PoseEvidence evidence;
+  const Eigen::Matrix3f r = rotation.cast<float>();
+  const Eigen::Vector3f t = translation.cast<float>();
+  stride = std::max<std::size_t>(stride, 1);
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  for (std::size_t i = 0; i < source.samples.size(); i += stride) {
+    ++evidence.samples;
+    const Eigen::Vector3f q = r * source.samples[i].position + t;
+    const int k = target.find(q);
+    if (k < 0)
+      continue;
+    ++evidence.matched;
+    const TargetDistributions::Distribution& dist = target[k];
+    const Eigen::Vector3f e = q - dist.mean;
+    const float m = e.dot(dist.information * e);
+    if (!(m <= kInlierMahalanobis))
+      continue;
+    ++evidence.inliers;
+    if (!with_information)
+      continue;
+    // n . (exp(omega) q + delta - mean): d/domega = (q x n)^T, d/ddelta = n^T.
+    const Eigen::Vector3f n = dist.normal;
+    Eigen::Matrix<double, 6, 1> a;
+    a << q.cross(n).cast<double>(), n.cast<double>();
+    information.noalias() += a * a.transpose();
+    const double d = n.dot(e);
+    evidence.plane_residuals += d * d;
+  }
+  evidence.plane_information = information;
+  return evidence;
+}
+
+} // namespace core
+} // namespace pcl_mi

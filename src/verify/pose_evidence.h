@@ -1,0 +1,47 @@
+/*
+ * pcl_mi: what the target's surfaces say about one pose of the source samples: how many
+ * samples land on them, and how firmly they hold the pose in each direction.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include "features/source_samples.h"
+#include "refine/refinement.h"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+
+namespace pcl_mi {
+namespace core {
+
+/** \brief Counts and point-to-plane information of the source samples at one pose. */
+struct PoseEvidence {
+  std::size_t samples = 0; ///< source samples looked at
+  std::size_t matched = 0; ///< samples inside a target cube that has a distribution
+  std::size_t inliers = 0; ///< matched samples within kInlierMahalanobis of the distribution
+  /** Sum over the inliers of a^T a, a = d(n . e) / d[omega, delta]: how the distance of a
+   * sample from its cube's surface (normal n) changes under a left increment of the pose
+   * (rotation first, about the target local origin). Unweighted, so its null space is
+   * exactly what the surfaces leave free: a floor's x, y and yaw, a corridor's length. */
+  Eigen::Matrix<double, 6, 6> plane_information = Eigen::Matrix<double, 6, 6>::Zero();
+  double plane_residuals = 0.0; ///< sum of the inliers' squared distances (n . e)^2
+};
+
+/** Squared Mahalanobis distance below which a sample lies on its cube's surface: three
+ * standard deviations across it. */
+constexpr double kInlierMahalanobis = 9.0;
+
+/** \brief The evidence of every \a stride-th sample of \a source moved by \a rotation,
+ * \a translation (source local to target local) against \a target; the point-to-plane
+ * terms only when \a with_information. */
+PoseEvidence
+gatherPoseEvidence(const TargetDistributions& target,
+                   const SourceSamples& source,
+                   const Eigen::Matrix3d& rotation,
+                   const Eigen::Vector3d& translation,
+                   std::size_t stride = 1,
+                   bool with_information = false);
+
+} // namespace core
+} // namespace pcl_mi

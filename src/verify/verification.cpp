@@ -1,0 +1,248 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "verify/verification.h"
+
+#include "features/mutual_information.h"
+#include "verify/pose_evidence.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+/** Most samples each probe around the result looks at: the contrast is a ratio of counts,
+ * which a few thousand samples fix well enough. */
+constexpr std::size_t kProbeSamples = 4096;
+
+/** The logistic model: confidence = 1 / (1 + exp(-(intercept + sum of weight * term))),
+ * fitted on the evidence of every result of the real sets in docs/method.md ("The verdict"),
+ * each set weighing the same. */
+constexpr double kIntercept = -13.69;
+constexpr double kWeightNormalizedMi = 23.98;
+constexpr double kWeightWeakestContrast = 6.59;
+constexpr double kWeightInlierLogit = 0.51;
+constexpr double kWeightLogInliers = 0.86;
+constexpr double kWeightPeakContrast = 2.73;
+/** Inlier fractions are clamped to [kFractionClamp, 1 - kFractionClamp] for the logit. */
+constexpr double kFractionClamp = 1e-3;
+
+/** Fewest inliers that can hold six degrees of freedom with room to spare. */
+constexpr std::size_t kMinimumInliers = 30;
+/** Share of the inliers that a move of one voxel along one of the two least observable
+ * directions must lose at least: a floor or a corridor loses only its edges along its free
+ * directions, whereas their noisy normals leave those directions some small information. */
+constexpr double kFreeDirectionContrast = 0.05;
+/** A component of a free direction at least this large names its axis in the reason. */
+constexpr double kNamedComponent = 0.4;
+
+const char* const kAxisNames[6] = {"x", "y", "z", "roll", "pitch", "yaw"};
+
+double
+rmsRadius(const SourceSamples& source)
+{
+  double sum = 0.0;
+  for (const SourceSample& s : source.samples)
+    sum += s.position.squaredNorm();
+  return source.samples.empty() ? 0.0 : std::sqrt(sum / source.samples.size());
+}
+
+/** "x, y and yaw": the axes that the free directions of \a v move. */
+std::string
+freeAxes(const Verification& v, const bool free[2])
+{
+  bool named[6] = {false, false, false, false, false, false};
+  for (int k = 0; k < 2; ++k)
+    if (free[k])
+      for (int i = 0; i < 6; ++i)
+        named[i] = named[i] || std::abs(v.observability_directions(i, k)) >= kNamedComponent;
+  std::vector<std::string> names;
+  for (int i = 0; i < 6; ++i)
+    if (named[i])
+      names.push_back(kAxisNames[i]);
+  std::string text;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    text += (i == 0 ? "" : i + 1 == names.size() ? " and " : ", ") + names[i];
+  return text;
+}
+
+/** The inliers one probe step away from the result along each axis, as a share lost. */
+void
+probeContrast(const TargetDistributions& target,
+              const SourceSamples& source,
+              const Eigen::Matrix3d& rotation,
+              const Eigen::Vector3d& translation,
+              double step,
+              double turn,
+              Verification& v)
+{
+  const std::size_t stride = source.samples.size() / kProbeSamples + 1;
+  const double base =
+      static_cast<double>(gatherPoseEvidence(target, source, rotation, translation, stride).inliers);
+  if (!(base > 0.0))
+    return;
+  double sum = 0.0, weakest = 1.0;
+  for (int axis = 0; axis < 6; ++axis) {
+    double lost = 0.0;
+    for (int sign = -1; sign <= 1; sign += 2) {
+      Eigen::Matrix3d r = rotation;
+      Eigen::Vector3d t = translation;
+      if (axis < 3) {
+        t[axis] += sign * step;
+      }
+      else {
+        // About the source's centroid, which sits at t in the target local frame.
+        const Eigen::Matrix3d d =
+            Eigen::AngleAxisd(sign * turn, Eigen::Vector3d::Unit(axis - 3)).toRotationMatrix();
+        r = d * rotation;
+      }
+      lost += 1.0 - gatherPoseEvidence(target, source, r, t, stride).inliers / base;
+    }
+    sum += 0.5 * lost;
+    weakest = std::min(weakest, 0.5 * lost);
+  }
+  v.peak_contrast = sum / 6.0;
+  v.weakest_contrast = weakest;
+}
+
+/** Share of the inliers lost by moving the result one voxel (\a step) either way along the
+ * scaled direction \a direction ([t, omega * radius]), rotations about the target local
+ * origin as in the information. */
+double
+directionContrast(const TargetDistributions& target,
+                  const SourceSamples& source,
+                  const Eigen::Matrix3d& rotation,
+                  const Eigen::Vector3d& translation,
+                  const Eigen::Matrix<double, 6, 1>& direction,
+                  double step,
+                  double radius)
+{
+  const std::size_t stride = source.samples.size() / kProbeSamples + 1;
+  const double base =
+      static_cast<double>(gatherPoseEvidence(target, source, rotation, translation, stride).inliers);
+  if (!(base > 0.0))
+    return 0.0;
+  double lost = 0.0;
+  for (int sign = -1; sign <= 1; sign += 2) {
+    const Eigen::Vector3d omega = sign * step * direction.tail<3>() / radius;
+    const double angle = omega.norm();
+    const Eigen::Matrix3d d = angle > 0.0
+                                  ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix()
+                                  : Eigen::Matrix3d::Identity();
+    const Eigen::Vector3d t = d * translation + sign * step * direction.head<3>();
+    lost += 1.0 - gatherPoseEvidence(target, source, d * rotation, t, stride).inliers / base;
+  }
+  return 0.5 * lost;
+}
+
+/** Observability and covariance from the point-to-plane information of \a at. */
+void
+planeInformation(const PoseEvidence& at,
+                 double radius,
+                 const Eigen::Vector3d& target_centroid,
+                 Verification& v)
+{
+  // [omega, delta] -> [delta, omega], rotations scaled to metres at the RMS radius.
+  Matrix6d order = Matrix6d::Zero();
+  order.block<3, 3>(0, 3).setIdentity();
+  order.block<3, 3>(3, 0).setIdentity();
+  const Matrix6d h = order * at.plane_information * order.transpose();
+  Eigen::Matrix<double, 6, 1> scale;
+  scale << 1.0, 1.0, 1.0, 1.0 / radius, 1.0 / radius, 1.0 / radius;
+  const Matrix6d scaled = scale.asDiagonal() * h * scale.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled);
+  const double largest = solver.eigenvalues()[5];
+  if (!(largest > 0.0))
+    return;
+  v.observability = (solver.eigenvalues() / largest).cwiseMax(0.0);
+  v.observability_directions = solver.eigenvectors();
+  if (at.inliers <= 6)
+    return;
+  // Residual variance across the surfaces, then back from the scaled increments; the
+  // increment about the target local origin becomes one about the input frame's origin:
+  // delta_origin = delta + c x omega.
+  const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
+  const Matrix6d scaled_covariance =
+      variance * solver.eigenvectors() * solver.eigenvalues().cwiseInverse().asDiagonal() *
+      solver.eigenvectors().transpose();
+  const Matrix6d local = scale.asDiagonal() * scaled_covariance * scale.asDiagonal();
+  Matrix6d to_origin = Matrix6d::Identity();
+  Eigen::Matrix3d cross;
+  cross << 0.0, -target_centroid.z(), target_centroid.y(), //
+      target_centroid.z(), 0.0, -target_centroid.x(),      //
+      -target_centroid.y(), target_centroid.x(), 0.0;
+  to_origin.block<3, 3>(0, 3) = cross;
+  v.covariance = to_origin * local * to_origin.transpose();
+}
+
+} // namespace
+
+double
+confidenceOf(const Verification& v)
+{
+  const double f = std::clamp(v.inlier_fraction, kFractionClamp, 1.0 - kFractionClamp);
+  const double z = kIntercept + kWeightNormalizedMi * v.normalized_mi +
+                   kWeightWeakestContrast * v.weakest_contrast +
+                   kWeightInlierLogit * std::log(f / (1.0 - f)) +
+                   kWeightLogInliers * std::log1p(static_cast<double>(v.inliers)) +
+                   kWeightPeakContrast * v.peak_contrast;
+  return 1.0 / (1.0 + std::exp(-z));
+}
+
+Verification
+verifyPose(const TargetDistributions& target,
+           const SourceSamples& source,
+           const Eigen::Matrix3d& rotation,
+           const Eigen::Vector3d& translation,
+           double resolution,
+           const JointHistogram& histogram,
+           const Eigen::Vector3d& target_centroid)
+{
+  Verification v;
+  const PoseEvidence at = gatherPoseEvidence(target, source, rotation, translation, 1, true);
+  if (at.samples > 0) {
+    v.inliers = at.inliers;
+    v.overlap = static_cast<double>(at.matched) / at.samples;
+    v.inlier_fraction = at.matched ? static_cast<double>(at.inliers) / at.matched : 0.0;
+  }
+  const Entropies h = entropies(histogram);
+  const double floor_entropy = std::min(h.source, h.target);
+  v.normalized_mi = floor_entropy > 0.0 ? h.mutualInformation() / floor_entropy : 0.0;
+
+  const double radius = std::max(rmsRadius(source), resolution);
+  probeContrast(target, source, rotation, translation, resolution, resolution / radius, v);
+  planeInformation(at, radius, target_centroid, v);
+  v.confidence = confidenceOf(v);
+  bool free[2] = {false, false};
+  for (int k = 0; k < 2; ++k) {
+    v.free_direction_contrast[k] =
+        directionContrast(target, source, rotation, translation,
+                          v.observability_directions.col(k), resolution, radius);
+    free[k] = v.free_direction_contrast[k] < kFreeDirectionContrast;
+  }
+
+  std::ostringstream reason;
+  if (at.inliers < kMinimumInliers)
+    reason << "the clouds share too little surface at this resolution (" << at.inliers
+           << " source samples on a target surface)";
+  else if (free[0] || free[1])
+    reason << "degenerate along " << freeAxes(v, free) << ": the surfaces leave the pose free there";
+  else if (v.confidence < kReliableConfidence)
+    reason << "the evidence is weak (confidence " << std::fixed << std::setprecision(2)
+           << v.confidence << ")";
+  v.reason = reason.str();
+  return v;
+}
+
+} // namespace core
+} // namespace pcl_mi

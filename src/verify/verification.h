@@ -1,0 +1,41 @@
+/*
+ * pcl_mi: the reliability test of an alignment result: the evidence gathered at the result
+ * and at poses around it, the confidence it gives, the directions it leaves free and the
+ * covariance.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include "features/source_samples.h"
+#include "refine/refinement.h"
+
+#include <pcl_mi/types.h>
+
+#include <Eigen/Core>
+
+namespace pcl_mi {
+namespace core {
+
+/** Confidence at or above which a result passes the reliability test. */
+constexpr double kReliableConfidence = 0.9;
+
+/** \brief The confidence the evidence in \a v gives (the logistic model of docs/method.md,
+ * "The verdict"). */
+double
+confidenceOf(const Verification& v);
+
+/** \brief The verification of the pose \a rotation, \a translation (source local to target
+ * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
+ * histogram at the pose, \a target_centroid the target local frame's origin in the target's
+ * input frame (the covariance is given about the input frame's origin). */
+Verification
+verifyPose(const TargetDistributions& target,
+           const SourceSamples& source,
+           const Eigen::Matrix3d& rotation,
+           const Eigen::Vector3d& translation,
+           double resolution,
+           const JointHistogram& histogram,
+           const Eigen::Vector3d& target_centroid);
+
+} // namespace core
+} // namespace pcl_mi

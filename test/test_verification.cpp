@@ -1,0 +1,153 @@
+/*
+ * The verdict (#20): hasConverged() only for a result the target's surfaces support, with
+ * the reason otherwise, the confidence and the directions the scene leaves free.
+ */
+#include "test_data.h"
+
+#include <pcl_mi/mutual_information_registration.h>
+
+#include <pcl/common/transforms.h>
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using Registration = pcl::MutualInformationRegistration<pcl::PointXYZ>;
+
+/** Aligns \a source onto \a target from the identity guess with the defaults. */
+void
+alignDefaults(Registration& reg, const Cloud::Ptr& source, const Cloud::Ptr& target)
+{
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud aligned;
+  EXPECT_NO_THROW(reg.align(aligned));
+}
+
+/** Not converged, with \a reason in the message (a refusal or a failed verdict). */
+void
+expectNotTrusted(const Registration& reg, const std::string& reason)
+{
+  EXPECT_FALSE(reg.hasConverged());
+  EXPECT_NE(reg.getLastError().find(reason), std::string::npos)
+      << "error was: '" << reg.getLastError() << "'";
+}
+
+/** Adds \a n points spread uniformly over the box [lo, hi], with 1 cm noise. */
+void
+addBox(Cloud& cloud, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, int n, std::mt19937& rng)
+{
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3f p =
+        lo + (hi - lo).cwiseProduct(Eigen::Vector3f(u(rng), u(rng), u(rng))) +
+        Eigen::Vector3f(noise(rng), noise(rng), noise(rng));
+    cloud.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  }
+}
+
+Cloud::Ptr
+moved(const Cloud& cloud, double x, double y, double yaw_deg)
+{
+  auto out = pcl::make_shared<Cloud>();
+  pcl::transformPointCloud(cloud, *out, test_data::planarMotion(x, y, yaw_deg).cast<float>());
+  return out;
+}
+
+} // namespace
+
+TEST(Verification, RealPairConvergesWithHighConfidence)
+{
+  Registration reg;
+  alignDefaults(reg, test_data::loadScan("00", 9), test_data::loadScan("00", 0));
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_GE(reg.getConfidence(), 0.95);
+  EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
+                   test_data::referenceTransform("00", 0, 9));
+  const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
+  EXPECT_TRUE(covariance.allFinite());
+  EXPECT_GT(covariance.diagonal().minCoeff(), 0.0);
+  // A street scan constrains every direction.
+  EXPECT_GT(reg.getVerification().observability[0], 1e-3);
+}
+
+TEST(Verification, FlatFloorIsDegenerateAlongItsPlane)
+{
+  std::mt19937 rng(1);
+  Cloud floor;
+  addBox(floor, {-20.0f, -20.0f, 0.0f}, {20.0f, 20.0f, 0.0f}, 40000, rng);
+  // From the true pose, as with good odometry: the search has nothing to find on a floor,
+  // and the verdict must say which directions the floor leaves free.
+  Registration reg;
+  reg.setInputSource(moved(floor, 1.0, 0.5, 3.0));
+  reg.setInputTarget(pcl::make_shared<Cloud>(floor));
+  Cloud aligned;
+  reg.align(aligned, test_data::planarMotion(1.0, 0.5, 3.0).inverse().cast<float>());
+  expectNotTrusted(reg, "degenerate along x, y");
+}
+
+TEST(Verification, CorridorIsDegenerateAlongItsLength)
+{
+  std::mt19937 rng(2);
+  Cloud corridor;
+  addBox(corridor, {-30.0f, -2.0f, 0.0f}, {30.0f, 2.0f, 0.0f}, 20000, rng);  // floor
+  addBox(corridor, {-30.0f, -2.0f, 0.0f}, {30.0f, -2.0f, 3.0f}, 20000, rng); // walls
+  addBox(corridor, {-30.0f, 2.0f, 0.0f}, {30.0f, 2.0f, 3.0f}, 20000, rng);
+  Registration reg;
+  alignDefaults(reg, moved(corridor, 1.5, 0.0, 0.0), pcl::make_shared<Cloud>(corridor));
+  expectNotTrusted(reg, "degenerate along x:");
+}
+
+TEST(Verification, InformationFreeInputsAreNotTrusted)
+{
+  {
+    SCOPED_TRACE("three copies of one point");
+    auto point = pcl::make_shared<Cloud>();
+    for (int i = 0; i < 3; ++i)
+      point->push_back(pcl::PointXYZ(1.0f, 2.0f, 3.0f));
+    Registration reg;
+    alignDefaults(reg, point, point);
+    EXPECT_FALSE(reg.hasConverged());
+    EXPECT_FALSE(reg.getLastError().empty());
+  }
+  {
+    SCOPED_TRACE("points on a line");
+    auto line = pcl::make_shared<Cloud>();
+    for (int i = 0; i < 2000; ++i)
+      line->push_back(pcl::PointXYZ(0.01f * i, 0.0f, 0.0f));
+    Registration reg;
+    alignDefaults(reg, moved(*line, 0.5, 0.0, 0.0), line);
+    EXPECT_FALSE(reg.hasConverged());
+    EXPECT_FALSE(reg.getLastError().empty());
+  }
+  {
+    SCOPED_TRACE("a street scan on a grid of one voxel");
+    Registration reg;
+    reg.setResolution(1e30);
+    alignDefaults(reg, test_data::loadScan("00", 9), test_data::loadScan("00", 0));
+    EXPECT_FALSE(reg.hasConverged());
+    EXPECT_FALSE(reg.getLastError().empty());
+  }
+  {
+    SCOPED_TRACE("two unrelated places");
+    Registration reg;
+    alignDefaults(reg, test_data::loadScan("02", 0), test_data::loadScan("00", 0));
+    expectNotTrusted(reg, "not converged");
+    EXPECT_LT(reg.getConfidence(), 0.5);
+  }
+  {
+    SCOPED_TRACE("a scan against its mirror image");
+    const Cloud::Ptr scan = test_data::loadScan("00", 0);
+    auto mirror = pcl::make_shared<Cloud>(*scan);
+    for (auto& p : mirror->points)
+      p.y = -p.y;
+    Registration reg;
+    alignDefaults(reg, mirror, scan);
+    expectNotTrusted(reg, "not converged");
+    EXPECT_LT(reg.getConfidence(), 0.5);
+  }
+}
