@@ -68,12 +68,12 @@ toPose(const py::object& object, const char* what)
 }
 
 py::array_t<double>
-toArray(const Eigen::Matrix4d& m)
+toArray(const Eigen::MatrixXd& m)
 {
-  py::array_t<double> out({4, 4});
+  py::array_t<double> out({m.rows(), m.cols()});
   auto view = out.mutable_unchecked<2>();
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c)
+  for (Eigen::Index r = 0; r < m.rows(); ++r)
+    for (Eigen::Index c = 0; c < m.cols(); ++c)
       view(r, c) = m(r, c);
   return out;
 }
@@ -170,6 +170,9 @@ toSettings(const py::kwargs& kwargs)
 struct Result {
   py::array_t<double> transformation;
   bool converged = false;
+  double confidence = 0.0;
+  std::string reason;
+  py::array_t<double> covariance;
   double mutual_information = 0.0;
   int iterations = 0;
   int evaluations = 0;
@@ -217,6 +220,11 @@ public:
     Result r;
     r.transformation = toArray(result.transformation);
     r.converged = result.converged;
+    r.confidence = result.verification.confidence;
+    r.reason = result.converged ? std::string() : result.search_converged
+                                                      ? result.verification.reason
+                                                      : "the iteration cap ended the search";
+    r.covariance = toArray(Eigen::Matrix<double, 6, 6>(result.verification.covariance));
     r.mutual_information = result.mutual_information;
     r.iterations = result.iterations;
     r.evaluations = result.evaluations;
@@ -256,7 +264,14 @@ PYBIND11_MODULE(pcl_mi, m)
       .def_readonly("transformation", &Result::transformation,
                     "4x4 float64 source-to-target transformation")
       .def_readonly("converged", &Result::converged,
-                    "True only when the simplex met its tolerances")
+                    "True only when the search converged and the result passed the "
+                    "reliability test (docs/method.md, 'The verdict')")
+      .def_readonly("confidence", &Result::confidence,
+                    "probability that the result is within 0.5 m and 2 deg of the true pose")
+      .def_readonly("reason", &Result::reason, "why converged is False ('' when True)")
+      .def_readonly("covariance", &Result::covariance,
+                    "6x6 covariance of the left increment [tx, ty, tz, roll, pitch, yaw] "
+                    "(m, rad; target frame)")
       .def_readonly("mutual_information", &Result::mutual_information, "nats at the result")
       .def_readonly("iterations", &Result::iterations, "Nelder-Mead iterations")
       .def_readonly("evaluations", &Result::evaluations, "cost evaluations")
@@ -266,6 +281,7 @@ PYBIND11_MODULE(pcl_mi, m)
       .def_readonly("warnings", &Result::warnings, "what did not stop the alignment")
       .def("__repr__", [](const Result& r) {
         return "<pcl_mi.Result converged=" + std::string(r.converged ? "True" : "False") +
+               " confidence=" + std::to_string(r.confidence) +
                " evaluations=" + std::to_string(r.evaluations) + ">";
       });
   py::class_<Registration>(m, "Registration",

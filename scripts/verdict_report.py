@@ -1,0 +1,81 @@
+#!/usr/bin/python3
+"""How far pcl_mi's verdict and confidence can be trusted, from pcl_mi_compare CSVs (one per
+set; the set is named by the file name): per set the share of converged results that miss
+the success bound and the share of right results that said converged, then the reliability
+diagram of the confidence over all rows (deciles; bins with fewer than 20 rows are marked).
+
+Usage: verdict_report.py [-success T,R] [-plot OUT.png] A.csv B.csv ...
+"""
+import csv
+import os
+import sys
+
+import numpy as np
+
+
+def main(argv):
+    args, files, bound, plot = argv[1:], [], (0.5, 2.0), None
+    i = 0
+    while i < len(args):
+        if args[i] == "-success":
+            bound, i = tuple(float(x) for x in args[i + 1].split(",")), i + 2
+        elif args[i] == "-plot":
+            plot, i = args[i + 1], i + 2
+        else:
+            files.append(args[i])
+            i += 1
+    confidence, success = [], []
+    print("| set | results | right | converged | wrong among converged | right that said converged |")
+    print("|---|---|---|---|---|---|")
+    totals = np.zeros(4)
+    for path in files:
+        with open(path) as f:
+            rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
+        ok = np.array([float(r["translation_error_m"]) < bound[0] and
+                       float(r["rotation_error_deg"]) < bound[1] for r in rows])
+        said = np.array([r["converged"] == "1" for r in rows])
+        confidence += [float(r["confidence"]) for r in rows]
+        success += list(ok)
+        wrong, found = (said & ~ok).sum(), (said & ok).sum()
+        totals += [len(rows), ok.sum(), said.sum(), wrong]
+        print("| %s | %d | %d | %d | %d (%.1f %%) | %.1f %% |" % (
+            os.path.splitext(os.path.basename(path))[0], len(rows), ok.sum(), said.sum(), wrong,
+            100.0 * wrong / max(said.sum(), 1), 100.0 * found / max(ok.sum(), 1)))
+    confidence, success = np.array(confidence), np.array(success)
+    print("| all | %d | %d | %d | %d (%.2f %%) | |" % (totals[0], totals[1], totals[2], totals[3],
+                                                  100.0 * totals[3] / max(totals[2], 1)))
+    print("\nReliability (all rows): confidence decile, rows, mean confidence, observed success")
+    print("| confidence | rows | mean confidence | observed success | difference |")
+    print("|---|---|---|---|---|")
+    centres, observed, counts = [], [], []
+    for b in range(10):
+        lo, hi = b / 10.0, (b + 1) / 10.0
+        m = (confidence >= lo) & ((confidence < hi) if b < 9 else (confidence <= hi))
+        if not m.any():
+            continue
+        c, s = confidence[m].mean(), success[m].mean()
+        centres.append(c), observed.append(s), counts.append(m.sum())
+        print("| %.1f-%.1f | %d%s | %.3f | %.3f | %+.1f points |" % (
+            lo, hi, m.sum(), "" if m.sum() >= 20 else " (< 20)", c, s, 100.0 * (s - c)))
+    if plot:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(5, 5))
+        ax.plot([0, 1], [0, 1], color="grey", lw=1, label="calibrated")
+        ax.fill_between([0, 1], [-0.1, 0.9], [0.1, 1.1], color="grey", alpha=0.15,
+                        label="+-10 points")
+        ax.scatter(centres, observed, s=[10 + 40 * np.log10(n) for n in counts], zorder=3,
+                   label="deciles (area: log rows)")
+        ax.set_xlim(0, 1), ax.set_ylim(0, 1)
+        ax.set_xlabel("mean confidence"), ax.set_ylabel("observed success")
+        ax.set_title("pcl_mi confidence, %d results" % len(confidence))
+        ax.legend(loc="upper left")
+        fig.tight_layout()
+        fig.savefig(plot, dpi=100)
+        print("\nwrote", plot)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
