@@ -123,7 +123,7 @@ struct Verification {
    * two least observable directions; below 0.05 the direction counts as free (degenerate). */
   double free_direction_contrast[2] = {0.0, 0.0};
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
-   * the inliers' residuals; zero where the information is singular. */
+   * the inliers' residuals; zero for a result with a free direction or too few inliers. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> covariance =
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Zero();
 };

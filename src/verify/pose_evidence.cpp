@@ -44,6 +44,7 @@ gatherPoseEvidence(const TargetDistributions& target,
     a << q.cross(n).cast<double>(), n.cast<double>();
     information.noalias() += a * a.transpose();
     const double d = n.dot(e);
+    evidence.plane_gradient += a * d;
     evidence.plane_residuals += d * d;
   }
   evidence.plane_information = information;

@@ -25,6 +25,9 @@ struct PoseEvidence {
    * (rotation first, about the target local origin). Unweighted, so its null space is
    * exactly what the surfaces leave free: a floor's x, y and yaw, a corridor's length. */
   Eigen::Matrix<double, 6, 6> plane_information = Eigen::Matrix<double, 6, 6>::Zero();
+  /** Sum over the inliers of a (n . e): with plane_information, the Gauss-Newton step to the
+   * point-to-plane optimum. */
+  Eigen::Matrix<double, 6, 1> plane_gradient = Eigen::Matrix<double, 6, 1>::Zero();
   double plane_residuals = 0.0; ///< sum of the inliers' squared distances (n . e)^2
 };
 

@@ -166,15 +166,21 @@ planeInformation(const PoseEvidence& at,
     return;
   v.observability = (solver.eigenvalues() / largest).cwiseMax(0.0);
   v.observability_directions = solver.eigenvectors();
-  if (at.inliers <= 6)
+  if (at.inliers <= 6 || !(v.observability[0] > 0.0))
     return;
   // Residual variance across the surfaces, then back from the scaled increments; the
   // increment about the target local origin becomes one about the input frame's origin:
   // delta_origin = delta + c x omega.
   const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
-  const Matrix6d scaled_covariance =
-      variance * solver.eigenvectors() * solver.eigenvalues().cwiseInverse().asDiagonal() *
-      solver.eigenvectors().transpose();
+  const Matrix6d scaled_inverse = solver.eigenvectors() *
+                                  solver.eigenvalues().cwiseInverse().asDiagonal() *
+                                  solver.eigenvectors().transpose();
+  // The result is not exactly the point-to-plane optimum (the refinement weighs distributions,
+  // not planes, and stops early): the Gauss-Newton step to it is an error of its own, which
+  // the covariance takes in as its outer product.
+  const Eigen::Matrix<double, 6, 1> step =
+      scaled_inverse * (scale.asDiagonal() * (order * at.plane_gradient));
+  const Matrix6d scaled_covariance = variance * scaled_inverse + step * step.transpose();
   const Matrix6d local = scale.asDiagonal() * scaled_covariance * scale.asDiagonal();
   Matrix6d to_origin = Matrix6d::Identity();
   Eigen::Matrix3d cross;
@@ -230,6 +236,8 @@ verifyPose(const TargetDistributions& target,
                           v.observability_directions.col(k), resolution, radius);
     free[k] = v.free_direction_contrast[k] < kFreeDirectionContrast;
   }
+  if (free[0] || free[1] || at.inliers < kMinimumInliers)
+    v.covariance.setZero();
 
   std::ostringstream reason;
   if (at.inliers < kMinimumInliers)
