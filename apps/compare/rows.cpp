@@ -20,7 +20,8 @@ using pcl_mi::apps::split;
 namespace {
 constexpr std::size_t kLegacyFields = 14;
 constexpr std::size_t kPoseFields = kLegacyFields + 3 + 2 * 12;
-constexpr std::size_t kFields = kPoseFields + 7;
+constexpr std::size_t kVerdictFields = kPoseFields + 7;
+constexpr std::size_t kFields = kVerdictFields + 7;
 } // namespace
 
 /** The first 14 columns are the original format, which readRows() still accepts; the columns
@@ -40,6 +41,8 @@ csvHeader(bool with_poses)
       for (int c = 0; c < 4; ++c)
         h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
   h += ",confidence,sd_x_m,sd_y_m,sd_z_m,sd_roll_deg,sd_pitch_deg,sd_yaw_deg";
+  h += ",search_converged,inliers,inlier_fraction,peak_contrast,weakest_contrast,normalized_mi,"
+       "free_direction_contrast";
   return h;
 }
 
@@ -78,6 +81,8 @@ writeRow(std::ostream& out, const Row& r)
   out << ',' << r.confidence;
   for (double sd : r.sigma)
     out << ',' << sd;
+  for (double e : r.evidence)
+    out << ',' << e;
   out << '\n';
 }
 
@@ -96,7 +101,8 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
   while (std::getline(in, line)) {
     ++number;
     if (line.empty() || line == legacy_header || line == header ||
-        line == header.substr(0, header.find(",confidence")))
+        line == header.substr(0, header.find(",confidence")) ||
+        line == header.substr(0, header.find(",search_converged")))
       continue;
     std::vector<std::string> f;
     std::stringstream ss(line);
@@ -104,7 +110,8 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
     while (std::getline(ss, item, ','))
       f.push_back(item);
     try {
-      if (f.size() != kLegacyFields && f.size() != kPoseFields && f.size() != kFields)
+      if (f.size() != kLegacyFields && f.size() != kPoseFields && f.size() != kVerdictFields &&
+          f.size() != kFields)
         throw std::invalid_argument("field count");
       Row r;
       r.sequence = f[0];
@@ -131,11 +138,14 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
             for (int j = 0; j < 4; ++j)
               (*m)(i, j) = std::stod(f[k++]);
         }
-        if (f.size() == kFields) {
+        if (f.size() >= kVerdictFields) {
           r.confidence = std::stod(f[k++]);
           for (double& sd : r.sigma)
             sd = std::stod(f[k++]);
         }
+        if (f.size() == kFields)
+          for (double& e : r.evidence)
+            e = std::stod(f[k++]);
       }
       rows.push_back(r);
     }

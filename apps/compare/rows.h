@@ -37,6 +37,10 @@ struct Row {
    * yaw); NaN for other methods and in rows of older files. */
   double confidence = NAN;
   double sigma[6] = {NAN, NAN, NAN, NAN, NAN, NAN};
+  /** The evidence behind MI's confidence (pcl_mi::Verification), for refitting its model:
+   * search converged (0/1), inliers, inlier fraction, peak contrast, weakest contrast,
+   * normalised MI and the smaller free-direction contrast. NaN as above. */
+  double evidence[7] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN};
 };
 
 /** The CSV header; \a with_poses adds the travel-frame errors and both transforms. */

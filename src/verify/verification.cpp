@@ -26,8 +26,8 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 constexpr std::size_t kProbeSamples = 4096;
 
 /** The logistic model: confidence = 1 / (1 + exp(-(intercept + sum of weight * term))),
- * fitted on the evidence of every result of the real sets in docs/method.md ("The verdict"),
- * each set weighing the same. */
+ * fitted by scripts/fit_confidence.py on the evidence of every result of the real sets in
+ * docs/benchmarks.md ("The verdict"), each set weighing the same. */
 constexpr double kIntercept = -13.69;
 constexpr double kWeightNormalizedMi = 23.98;
 constexpr double kWeightWeakestContrast = 6.59;

@@ -1,0 +1,86 @@
+#!/usr/bin/python3
+"""Fits the confidence model of src/verify/verification.cpp to pcl_mi_compare CSVs (one per
+set, named by the file name) and checks it out of sample, each set left out in turn.
+
+The model is a logistic regression of "within the success bound" on five terms of the
+evidence: normalised MI, weakest contrast, logit of the inlier fraction, log(1 + inliers)
+and peak contrast. Every set weighs the same, whatever its number of results, and a small
+ridge keeps the weights finite where a set separates perfectly. The verdict it is scored
+with is the engine's: search converged, at least 30 inliers, free-direction contrast at
+least 0.05 and confidence at least 0.9.
+
+Usage: fit_confidence.py [-success T,R] A.csv B.csv ...
+"""
+import csv
+import os
+import sys
+
+import numpy as np
+
+TERMS = ["normalized_mi", "weakest_contrast", "logit(inlier_fraction)", "log1p(inliers)",
+         "peak_contrast"]
+RIDGE = 0.1
+
+
+def load(path, bound):
+    with open(path) as f:
+        rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
+    g = lambda k: np.array([float(r[k]) for r in rows])
+    f = np.clip(g("inlier_fraction"), 1e-3, 1 - 1e-3)
+    x = np.column_stack([g("normalized_mi"), g("weakest_contrast"), np.log(f / (1 - f)),
+                         np.log1p(g("inliers")), g("peak_contrast")])
+    y = (g("translation_error_m") < bound[0]) & (g("rotation_error_deg") < bound[1])
+    gate = (g("search_converged") > 0.5) & (g("inliers") >= 30) & (g("free_direction_contrast") >= 0.05)
+    return x, y, gate
+
+
+def fit(x, y, w):
+    x1 = np.column_stack([np.ones(len(x)), x])
+    b = np.zeros(x1.shape[1])
+    ridge = RIDGE * np.diag(np.r_[0.0, np.ones(x.shape[1])])
+    for _ in range(100):
+        p = 1.0 / (1.0 + np.exp(-x1 @ b))
+        step = np.linalg.solve((x1 * (w * p * (1 - p))[:, None]).T @ x1 + ridge,
+                               x1.T @ (w * (p - y)) + ridge @ b)
+        b -= step
+        if np.abs(step).max() < 1e-10:
+            break
+    return b
+
+
+def predict(b, x):
+    return 1.0 / (1.0 + np.exp(-(b[0] + x @ b[1:])))
+
+
+def main(argv):
+    args, files, bound = argv[1:], [], (0.5, 2.0)
+    if len(args) >= 2 and args[0] == "-success":
+        bound, args = tuple(float(v) for v in args[1].split(",")), args[2:]
+    sets = {os.path.splitext(os.path.basename(p))[0]: load(p, bound) for p in args}
+
+    def pooled(names):
+        x = np.vstack([sets[n][0] for n in names])
+        y = np.concatenate([sets[n][1] for n in names]).astype(float)
+        w = np.concatenate([np.full(len(sets[n][1]), 1000.0 / len(sets[n][1])) for n in names])
+        return x, y, w
+
+    b = fit(*pooled(list(sets)))
+    print("intercept %.2f" % b[0])
+    for name, weight in zip(TERMS, b[1:]):
+        print("%-24s %.2f" % (name, weight))
+    print("\nLeft out in turn (fitted on the others): converged, wrong among them, recall")
+    totals = np.zeros(4)
+    for name in sets:
+        others = [n for n in sets if n != name]
+        x, y, gate = sets[name]
+        said = gate & (predict(fit(*pooled(others)), x) >= 0.9)
+        totals += [said.sum(), (said & ~y).sum(), (said & y).sum(), y.sum()]
+        print("%-24s %5d %4d (%4.1f %%) %5.1f %%" % (name, said.sum(), (said & ~y).sum(),
+              100.0 * (said & ~y).sum() / max(said.sum(), 1), 100.0 * (said & y).sum() / max(y.sum(), 1)))
+    print("%-24s %5d %4d (%4.2f %%) %5.1f %%" % ("all", totals[0], totals[1],
+          100.0 * totals[1] / max(totals[0], 1), 100.0 * totals[2] / max(totals[3], 1)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
