@@ -3,6 +3,7 @@
  */
 #include "refine/refinement.h"
 
+#include "util/left_increment.h"
 #include "util/parallel.h"
 
 #include <Eigen/Cholesky>
@@ -346,13 +347,7 @@ refineToDistributions(const TargetDistributions& target,
     if (it > 0 && options.extrapolate)
       xi *= extrapolation(step, previous_step);
     previous_step = step;
-    const Eigen::Vector3d omega = xi.head<3>();
-    const double angle = omega.norm();
-    const Eigen::Matrix3d dr =
-        angle > 0.0 ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix()
-                    : Eigen::Matrix3d::Identity();
-    result.rotation = dr * result.rotation;
-    result.translation = dr * result.translation + xi.tail<3>();
+    applyLeftIncrement(xi.head<3>(), xi.tail<3>(), result.rotation, result.translation);
     result.iterations = it + 1;
     if (step.head<3>().norm() < options.rotation_epsilon &&
         step.tail<3>().norm() < options.translation_epsilon) {

@@ -4,6 +4,7 @@
 #include "verify/verification.h"
 
 #include "features/mutual_information.h"
+#include "util/left_increment.h"
 #include "verify/pose_evidence.h"
 
 #include <Eigen/Eigenvalues>
@@ -76,73 +77,81 @@ freeAxes(const Verification& v, const bool free[2])
   return text;
 }
 
-/** The inliers one probe step away from the result along each axis, as a share lost. */
-void
-probeContrast(const TargetDistributions& target,
+/** Counts the inliers of poses near the result against the result's own, on every k-th
+ * sample (at most kProbeSamples). */
+class InlierProbe {
+public:
+  InlierProbe(const TargetDistributions& target,
               const SourceSamples& source,
               const Eigen::Matrix3d& rotation,
-              const Eigen::Vector3d& translation,
-              double step,
-              double turn,
-              Verification& v)
-{
-  const std::size_t stride = source.samples.size() / kProbeSamples + 1;
-  const double base =
-      static_cast<double>(gatherPoseEvidence(target, source, rotation, translation, stride).inliers);
-  if (!(base > 0.0))
-    return;
-  double sum = 0.0, weakest = 1.0;
-  for (int axis = 0; axis < 6; ++axis) {
+              const Eigen::Vector3d& translation)
+  : target_(target),
+    source_(source),
+    rotation_(rotation),
+    translation_(translation),
+    stride_(source.samples.size() / kProbeSamples + 1),
+    base_(static_cast<double>(
+        gatherPoseEvidence(target, source, rotation, translation, stride_).inliers))
+  {}
+
+  /** \brief Mean share of the result's inliers lost by the left increments +-[omega,
+   * delta] (rotations about the target local origin); 0 for a result without inliers. */
+  double
+  lostEitherWay(const Eigen::Vector3d& omega, const Eigen::Vector3d& delta) const
+  {
+    if (!(base_ > 0.0))
+      return 0.0;
     double lost = 0.0;
     for (int sign = -1; sign <= 1; sign += 2) {
-      Eigen::Matrix3d r = rotation;
-      Eigen::Vector3d t = translation;
-      if (axis < 3) {
-        t[axis] += sign * step;
-      }
-      else {
-        // About the source's centroid, which sits at t in the target local frame.
-        const Eigen::Matrix3d d =
-            Eigen::AngleAxisd(sign * turn, Eigen::Vector3d::Unit(axis - 3)).toRotationMatrix();
-        r = d * rotation;
-      }
-      lost += 1.0 - gatherPoseEvidence(target, source, r, t, stride).inliers / base;
+      Eigen::Matrix3d r = rotation_;
+      Eigen::Vector3d t = translation_;
+      applyLeftIncrement(sign * omega, sign * delta, r, t);
+      lost += 1.0 - gatherPoseEvidence(target_, source_, r, t, stride_).inliers / base_;
     }
-    sum += 0.5 * lost;
-    weakest = std::min(weakest, 0.5 * lost);
+    return 0.5 * lost;
+  }
+
+  /** \brief The same for turns by +-\a angle about the axis \a axis through the source's
+   * centroid, which sits at the translation in the target local frame. */
+  double
+  lostTurningEitherWay(int axis, double angle) const
+  {
+    if (!(base_ > 0.0))
+      return 0.0;
+    double lost = 0.0;
+    for (int sign = -1; sign <= 1; sign += 2) {
+      const Eigen::Matrix3d r =
+          Eigen::AngleAxisd(sign * angle, Eigen::Vector3d::Unit(axis)).toRotationMatrix() *
+          rotation_;
+      lost += 1.0 - gatherPoseEvidence(target_, source_, r, translation_, stride_).inliers / base_;
+    }
+    return 0.5 * lost;
+  }
+
+private:
+  const TargetDistributions& target_;
+  const SourceSamples& source_;
+  const Eigen::Matrix3d rotation_;
+  const Eigen::Vector3d translation_;
+  const std::size_t stride_;
+  const double base_;
+};
+
+/** Peak and weakest contrast: the inliers lost one voxel (\a step) along each axis, or
+ * turned by \a turn about it, either way. */
+void
+probeContrast(const InlierProbe& probe, double step, double turn, Verification& v)
+{
+  double sum = 0.0, weakest = 1.0;
+  for (int axis = 0; axis < 6; ++axis) {
+    const double lost = axis < 3 ? probe.lostEitherWay(Eigen::Vector3d::Zero(),
+                                                       step * Eigen::Vector3d::Unit(axis))
+                                 : probe.lostTurningEitherWay(axis - 3, turn);
+    sum += lost;
+    weakest = std::min(weakest, lost);
   }
   v.peak_contrast = sum / 6.0;
   v.weakest_contrast = weakest;
-}
-
-/** Share of the inliers lost by moving the result one voxel (\a step) either way along the
- * scaled direction \a direction ([t, omega * radius]), rotations about the target local
- * origin as in the information. */
-double
-directionContrast(const TargetDistributions& target,
-                  const SourceSamples& source,
-                  const Eigen::Matrix3d& rotation,
-                  const Eigen::Vector3d& translation,
-                  const Eigen::Matrix<double, 6, 1>& direction,
-                  double step,
-                  double radius)
-{
-  const std::size_t stride = source.samples.size() / kProbeSamples + 1;
-  const double base =
-      static_cast<double>(gatherPoseEvidence(target, source, rotation, translation, stride).inliers);
-  if (!(base > 0.0))
-    return 0.0;
-  double lost = 0.0;
-  for (int sign = -1; sign <= 1; sign += 2) {
-    const Eigen::Vector3d omega = sign * step * direction.tail<3>() / radius;
-    const double angle = omega.norm();
-    const Eigen::Matrix3d d = angle > 0.0
-                                  ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix()
-                                  : Eigen::Matrix3d::Identity();
-    const Eigen::Vector3d t = d * translation + sign * step * direction.head<3>();
-    lost += 1.0 - gatherPoseEvidence(target, source, d * rotation, t, stride).inliers / base;
-  }
-  return 0.5 * lost;
 }
 
 /** Observability and covariance from the point-to-plane information of \a at. */
@@ -191,8 +200,7 @@ planeInformation(const PoseEvidence& at,
   v.covariance = to_origin * local * to_origin.transpose();
 }
 
-} // namespace
-
+/** The confidence the evidence in \a v gives. */
 double
 confidenceOf(const Verification& v)
 {
@@ -204,6 +212,8 @@ confidenceOf(const Verification& v)
                    kWeightPeakContrast * v.peak_contrast;
   return 1.0 / (1.0 + std::exp(-z));
 }
+
+} // namespace
 
 Verification
 verifyPose(const TargetDistributions& target,
@@ -226,14 +236,16 @@ verifyPose(const TargetDistributions& target,
   v.normalized_mi = floor_entropy > 0.0 ? h.mutualInformation() / floor_entropy : 0.0;
 
   const double radius = std::max(rmsRadius(source), resolution);
-  probeContrast(target, source, rotation, translation, resolution, resolution / radius, v);
+  const InlierProbe probe(target, source, rotation, translation);
+  probeContrast(probe, resolution, resolution / radius, v);
   planeInformation(at, radius, target_centroid, v);
   v.confidence = confidenceOf(v);
+  // The two least observable directions ([t, omega * radius]), moved one voxel either way.
   bool free[2] = {false, false};
   for (int k = 0; k < 2; ++k) {
-    v.free_direction_contrast[k] =
-        directionContrast(target, source, rotation, translation,
-                          v.observability_directions.col(k), resolution, radius);
+    const Eigen::Matrix<double, 6, 1> direction = v.observability_directions.col(k);
+    v.free_direction_contrast[k] = probe.lostEitherWay(resolution * direction.tail<3>() / radius,
+                                                       resolution * direction.head<3>());
     free[k] = v.free_direction_contrast[k] < kFreeDirectionContrast;
   }
   if (free[0] || free[1] || at.inliers < kMinimumInliers)

@@ -19,11 +19,6 @@ namespace core {
 /** Confidence at or above which a result passes the reliability test. */
 constexpr double kReliableConfidence = 0.9;
 
-/** \brief The confidence the evidence in \a v gives (the logistic model of docs/method.md,
- * "The verdict"). */
-double
-confidenceOf(const Verification& v);
-
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose, \a target_centroid the target local frame's origin in the target's
