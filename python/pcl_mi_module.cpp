@@ -221,9 +221,9 @@ public:
     r.transformation = toArray(result.transformation);
     r.converged = result.converged;
     r.confidence = result.verification.confidence;
-    r.reason = result.converged ? std::string() : result.search_converged
-                                                      ? result.verification.reason
-                                                      : "the iteration cap ended the search";
+    r.reason = pcl_mi::notConvergedCause(
+        result, settings_.max_iterations,
+        "max_iterations=" + std::to_string(settings_.max_iterations));
     r.covariance = toArray(Eigen::Matrix<double, 6, 6>(result.verification.covariance));
     r.mutual_information = result.mutual_information;
     r.iterations = result.iterations;

@@ -246,6 +246,20 @@ RegistrationCore::droppedSourcePoints() const
   return c.non_finite + c.no_return + c.outliers;
 }
 
+std::string
+notConvergedCause(const AlignmentResult& result, int max_iterations, const std::string& cap_name)
+{
+  if (result.converged)
+    return {};
+  if (result.search_converged)
+    return result.verification.reason;
+  const std::string cap = "(" + cap_name + ")";
+  return (result.iterations >= max_iterations
+              ? "the iteration cap " + cap + " ended the search"
+              : "the best search stopped at its share of the iteration cap " + cap) +
+         " before the simplex met its tolerances";
+}
+
 bool
 openClAvailable(std::string* reason)
 {

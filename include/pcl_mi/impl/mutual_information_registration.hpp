@@ -441,20 +441,12 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
     converged_ = result_.converged;
     nr_iterations_ = result_.iterations;
     last_error_.clear();
-    if (!converged_ && result_.search_converged) {
-      last_error_ = "not converged: " + result_.verification.reason +
+    if (!converged_)
+      last_error_ = "not converged: " +
+                    pcl_mi::notConvergedCause(result_, max_iterations_,
+                                              "setMaximumIterations(" +
+                                                  std::to_string(max_iterations_) + ")") +
                     "; the final transformation is the best one found";
-    }
-    else if (!converged_) {
-      const std::string cap = "(setMaximumIterations(" + std::to_string(max_iterations_) + "))";
-      const std::string cause =
-          nr_iterations_ >= max_iterations_
-              ? "the iteration cap " + cap + " ended the search"
-              : "the best search stopped at its share of the iteration cap " + cap;
-      last_error_ = "not converged: " + cause +
-                    " before the simplex met its tolerances; the final transformation is the "
-                    "best one found";
-    }
   }
   transformation_ = final_transformation_;
   previous_transformation_ = final_transformation_;
