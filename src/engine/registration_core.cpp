@@ -154,7 +154,6 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.position_starts = options.position_starts;
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
-  result.mutual_information = -found.best.value;
   result.transformation = space.pose(found.best.x);
 
   if (p.refinement.method == Refinement::PointToDistribution) {
