@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   libpcl-dev libeigen3-dev libflann-dev libboost-all-dev libvtk9-dev libopenmpi-dev
-  libgtest-dev
+  libgtest-dev libbenchmark-dev
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo
   clang libclang-rt-14-dev
   python3-matplotlib python3-numpy xvfb xauth
