@@ -4,6 +4,7 @@
 #include "backend/scoring_backend.h"
 
 #include "features/feature_binning.h"
+#include "util/zeroed_array.h"
 
 #include <algorithm>
 #include <chrono>
@@ -31,7 +32,7 @@ public:
   {
     target_ = std::move(target);
     // One spare cell past the grid collects the samples outside it.
-    moments_.assign(target_->geometry.cellCount() + 1, core::VoxelMoments{});
+    moments_ = core::ZeroedArray<core::VoxelMoments>(target_->geometry.cellCount() + 1);
     touched_.clear();
   }
 
@@ -189,7 +190,7 @@ private:
 
   std::shared_ptr<const core::TargetGrid> target_;
   std::shared_ptr<const core::SourceSamples> source_;
-  std::vector<core::VoxelMoments> moments_; // per target cell, zero between calls
+  core::ZeroedArray<core::VoxelMoments> moments_; // per target cell, zero between calls
   std::vector<std::uint32_t> touched_;      // cells with source points this call
   int calls_ = 0;
   double total_ms_ = 0.0;

@@ -3,6 +3,9 @@
  */
 #include "features/voxel_grid.h"
 
+#include "util/bounding_box.h"
+#include "util/zeroed_array.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -14,61 +17,72 @@ namespace core {
 namespace {
 
 /** Values of one axis sampled for its median: the median only anchors the cells in
- * bulkRange(), and a strided sample finds it without a selection over every point. */
+ * bulkRanges(), and a strided sample finds it without a selection over every point. */
 constexpr std::size_t kMedianSamples = 4096;
 
-/** Cells of half a gap on either side of the median that bulkRange() looks at: points
+/** Cells of half a gap on either side of the median that bulkRanges() looks at: points
  * further out (2048 gaps: 131 km at 1 m voxels) are outliers whatever lies between. */
 constexpr long kHalfGapCells = 4096;
 
-/** [low, high] of axis \a axis: the values of the largest group of \a points, where groups
- * are split wherever two consecutive values (in sorted order) are at least \a gap apart.
+/** Per axis, [low, high]: the values of the largest group of \a points, where groups are
+ * split wherever two consecutive values (in sorted order) are at least \a gap apart.
  * Exact without sorting: values are put in cells of half a gap, which keep their count,
  * minimum and maximum; values in the same or neighbouring cells are less than a gap apart,
- * and across empty cells the gap is the next cell's minimum minus the last one's maximum. */
+ * and across empty cells the gap is the next cell's minimum minus the last one's maximum.
+ * The three axes share one pass, so that their updates of the few cells most points fall
+ * into do not wait on one another. */
 void
-bulkRange(const PointList& points, int axis, double gap, double& low, double& high)
+bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vector3d& high)
 {
   const std::size_t stride = std::max<std::size_t>(1, points.size() / kMedianSamples);
+  double median[3];
   std::vector<float> sample;
   sample.reserve(points.size() / stride + 1);
-  for (std::size_t i = 0; i < points.size(); i += stride)
-    sample.push_back(points[i][axis]);
-  auto mid = sample.begin() + sample.size() / 2;
-  std::nth_element(sample.begin(), mid, sample.end());
-  const double median = *mid;
+  for (int axis = 0; axis < 3; ++axis) {
+    sample.clear();
+    for (std::size_t i = 0; i < points.size(); i += stride)
+      sample.push_back(points[i][axis]);
+    auto mid = sample.begin() + sample.size() / 2;
+    std::nth_element(sample.begin(), mid, sample.end());
+    median[axis] = *mid;
+  }
   struct Cell {
     std::size_t count = 0;
     float min = 0.0f, max = 0.0f;
   };
-  std::vector<Cell> cells(2 * kHalfGapCells + 1);
+  constexpr std::size_t kCells = 2 * kHalfGapCells + 1;
+  std::vector<Cell> cells(3 * kCells);
   const double inv_width = 2.0 / gap;
-  for (const auto& p : points) {
-    const double k = std::floor((p[axis] - median) * inv_width);
-    if (!(std::abs(k) <= kHalfGapCells))
-      continue;
-    Cell& c = cells[static_cast<std::size_t>(k + kHalfGapCells)];
-    c.min = c.count ? std::min(c.min, p[axis]) : p[axis];
-    c.max = c.count ? std::max(c.max, p[axis]) : p[axis];
-    ++c.count;
-  }
-  // The groups in order; the first of equally large ones wins.
-  std::size_t best = 0, current = 0;
-  double group_low = 0.0, last_max = 0.0;
-  low = high = median;
-  for (const Cell& c : cells) {
-    if (c.count == 0)
-      continue;
-    if (current > 0 && static_cast<double>(c.min) - last_max >= gap)
-      current = 0;
-    if (current == 0)
-      group_low = c.min;
-    current += c.count;
-    last_max = c.max;
-    if (current > best) {
-      best = current;
-      low = group_low;
-      high = last_max;
+  for (const auto& p : points)
+    for (int axis = 0; axis < 3; ++axis) {
+      const double k = std::floor((p[axis] - median[axis]) * inv_width);
+      if (!(std::abs(k) <= kHalfGapCells))
+        continue;
+      Cell& c = cells[axis * kCells + static_cast<std::size_t>(k + kHalfGapCells)];
+      c.min = c.count ? std::min(c.min, p[axis]) : p[axis];
+      c.max = c.count ? std::max(c.max, p[axis]) : p[axis];
+      ++c.count;
+    }
+  for (int axis = 0; axis < 3; ++axis) {
+    // The groups in order; the first of equally large ones wins.
+    std::size_t best = 0, current = 0;
+    double group_low = 0.0, last_max = 0.0;
+    low[axis] = high[axis] = median[axis];
+    for (std::size_t i = 0; i < kCells; ++i) {
+      const Cell& c = cells[axis * kCells + i];
+      if (c.count == 0)
+        continue;
+      if (current > 0 && static_cast<double>(c.min) - last_max >= gap)
+        current = 0;
+      if (current == 0)
+        group_low = c.min;
+      current += c.count;
+      last_max = c.max;
+      if (current > best) {
+        best = current;
+        low[axis] = group_low;
+        high[axis] = last_max;
+      }
     }
   }
 }
@@ -103,8 +117,7 @@ makeLocalCloud(const PointList& points, double outlier_gap)
       kept.push_back(p);
 
   Eigen::Vector3d low, high;
-  for (int a = 0; a < 3; ++a)
-    bulkRange(kept, a, outlier_gap, low[a], high[a]);
+  bulkRanges(kept, outlier_gap, low, high);
 
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   std::size_t count = 0;
@@ -160,11 +173,9 @@ makeGridGeometry(const PointList& points,
     error = "the target has no usable points";
     return false;
   }
-  Eigen::Vector3f min = points.front(), max = points.front();
-  for (const auto& p : points) {
-    min = min.cwiseMin(p);
-    max = max.cwiseMax(p);
-  }
+  Eigen::Vector3f min, max;
+  boundingBox(points.size(), [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; },
+              min, max);
   g.resolution = static_cast<float>(resolution);
   const Eigen::Vector3d first = (min.cast<double>() / resolution).array().floor();
   const Eigen::Vector3d last = (max.cast<double>() / resolution).array().floor();
@@ -196,20 +207,30 @@ buildTargetGrid(const PointList& points,
   grid.feature = feature;
   grid.binning = binning;
 
-  std::vector<VoxelMoments> moments(g.cellCount());
+  // Only the occupied cells are visited after the pass over the points, in the order of
+  // their index (z, then y, then x), which is the order of grid.occupied.
+  ZeroedArray<VoxelMoments> moments(g.cellCount());
+  std::vector<std::uint32_t> occupied_cells;
   const float inv_res = 1.0f / g.resolution;
+  // Truncation, clamped to the grid, gives floor()'s cells for every value: the two differ
+  // only below 0, where both clamp to 0. Without SSE4.1, floor() is the costlier.
   for (const auto& p : points) {
     const Eigen::Vector3f f = (p - g.origin) * inv_res;
-    const int ix = std::min(std::max(static_cast<int>(std::floor(f.x())), 0), g.dims.x() - 1);
-    const int iy = std::min(std::max(static_cast<int>(std::floor(f.y())), 0), g.dims.y() - 1);
-    const int iz = std::min(std::max(static_cast<int>(std::floor(f.z())), 0), g.dims.z() - 1);
-    moments[g.cellIndex(ix, iy, iz)].add(quantiseHeight(f.z(), iz));
+    const int ix = std::min(std::max(static_cast<int>(f.x()), 0), g.dims.x() - 1);
+    const int iy = std::min(std::max(static_cast<int>(f.y()), 0), g.dims.y() - 1);
+    const int iz = std::min(std::max(static_cast<int>(f.z()), 0), g.dims.z() - 1);
+    const std::size_t cell = g.cellIndex(ix, iy, iz);
+    VoxelMoments& m = moments[cell];
+    if (m.count == 0)
+      occupied_cells.push_back(static_cast<std::uint32_t>(cell));
+    m.add(quantiseHeight(f.z(), iz));
   }
+  std::sort(occupied_cells.begin(), occupied_cells.end());
   if (binning.range_quantile > 0.0) {
     std::vector<double> values;
-    for (const auto& m : moments)
-      if (m.count)
-        values.push_back(featureValue(feature, m));
+    values.reserve(occupied_cells.size());
+    for (const std::uint32_t cell : occupied_cells)
+      values.push_back(featureValue(feature, moments[cell]));
     if (!values.empty()) {
       const auto k = values.begin() + static_cast<std::ptrdiff_t>(
                                           binning.range_quantile * (values.size() - 1));
@@ -220,16 +241,16 @@ buildTargetGrid(const PointList& points,
   }
   grid.bins.assign(g.cellCount(), 0);
   grid.occupied.clear();
-  for (int iz = 0; iz < g.dims.z(); ++iz)
-    for (int iy = 0; iy < g.dims.y(); ++iy)
-      for (int ix = 0; ix < g.dims.x(); ++ix) {
-        const std::size_t cell = g.cellIndex(ix, iy, iz);
-        if (moments[cell].count == 0)
-          continue;
-        const auto bin = static_cast<std::uint8_t>(voxelBin(feature, grid.binning, moments[cell]));
-        grid.bins[cell] = bin;
-        grid.occupied.push_back({static_cast<std::uint32_t>(cell), ix, iy, iz, bin});
-      }
+  grid.occupied.reserve(occupied_cells.size());
+  const std::size_t row = static_cast<std::size_t>(g.dims.x());
+  const std::size_t slice = row * static_cast<std::size_t>(g.dims.y());
+  for (const std::uint32_t cell : occupied_cells) {
+    const auto bin = static_cast<std::uint8_t>(voxelBin(feature, grid.binning, moments[cell]));
+    grid.bins[cell] = bin;
+    grid.occupied.push_back({cell, static_cast<std::int32_t>(cell % row),
+                             static_cast<std::int32_t>(cell / row % g.dims.y()),
+                             static_cast<std::int32_t>(cell / slice), bin});
+  }
   return true;
 }
 
