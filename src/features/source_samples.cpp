@@ -3,6 +3,8 @@
  */
 #include "features/source_samples.h"
 
+#include "util/bounding_box.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -11,30 +13,39 @@ namespace core {
 
 namespace {
 
-using KeyedIndex = std::pair<std::uint64_t, std::uint32_t>;
+/** Widest radix digit: 4096 buckets keep a pass's offsets in the first-level caches. */
+constexpr int kMaxDigitBits = 12;
 
-/** Sorts by key (keys below 2^bits) with a stable LSD radix sort in 11-bit digits: three
- * linear passes for a KITTI scan's cells instead of a comparison sort. */
+/** Sorts \a items by key(item) (keys below 2^bits) with a stable LSD radix sort in as few
+ * passes of at most kMaxDigitBits as the bits need; every pass's bucket sizes are counted in
+ * one read before the first. Linear, instead of a comparison sort. */
+template <typename Item, typename KeyOf>
 void
-radixSortByKey(std::vector<KeyedIndex>& keyed, int bits)
+radixSort(std::vector<Item>& items, int bits, const KeyOf& key)
 {
-  constexpr int kDigitBits = 11;
-  constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
-  std::vector<KeyedIndex> buffer(keyed.size());
-  std::vector<std::size_t> offsets(kBuckets);
-  for (int shift = 0; shift < bits; shift += kDigitBits) {
-    std::fill(offsets.begin(), offsets.end(), 0);
-    for (const auto& k : keyed)
-      ++offsets[(k.first >> shift) & (kBuckets - 1)];
+  const int passes = std::max(1, (bits + kMaxDigitBits - 1) / kMaxDigitBits);
+  const int digit_bits = std::max(1, (bits + passes - 1) / passes);
+  const std::size_t buckets = std::size_t{1} << digit_bits;
+  const std::uint64_t digit_mask = buckets - 1;
+  std::vector<std::size_t> offsets(static_cast<std::size_t>(passes) * buckets, 0);
+  for (const Item& item : items) {
+    const std::uint64_t k = key(item);
+    for (int pass = 0; pass < passes; ++pass)
+      ++offsets[pass * buckets + ((k >> (pass * digit_bits)) & digit_mask)];
+  }
+  std::vector<Item> buffer(items.size());
+  for (int pass = 0; pass < passes; ++pass) {
+    std::size_t* offset = offsets.data() + pass * buckets;
     std::size_t sum = 0;
-    for (auto& o : offsets) {
-      const std::size_t count = o;
-      o = sum;
+    for (std::size_t b = 0; b < buckets; ++b) {
+      const std::size_t count = offset[b];
+      offset[b] = sum;
       sum += count;
     }
-    for (const auto& k : keyed)
-      buffer[offsets[(k.first >> shift) & (kBuckets - 1)]++] = k;
-    keyed.swap(buffer);
+    const int shift = pass * digit_bits;
+    for (const Item& item : items)
+      buffer[offset[(key(item) >> shift) & digit_mask]++] = item;
+    items.swap(buffer);
   }
 }
 
@@ -48,12 +59,55 @@ bitsFor(std::uint64_t max_value)
   return bits;
 }
 
+/** Indices of positions in the order of their cells' keys (stable), with the keys. Keys of
+ * up to 32 bits share one 64-bit word with their index, which halves what the sort moves;
+ * wider ones (very fine cells over a large extent) are kept beside it. */
+class SortedCells {
+public:
+  /** Sorts the indices 0 .. count - 1 by key_of(index), keys below 2^bits. */
+  template <typename KeyOf>
+  SortedCells(std::size_t count, int bits, const KeyOf& key_of)
+  {
+    if (bits <= 32) {
+      packed_.resize(count);
+      for (std::size_t i = 0; i < count; ++i)
+        packed_[i] = key_of(i) << 32 | static_cast<std::uint64_t>(i);
+      radixSort(packed_, bits, [](std::uint64_t v) { return v >> 32; });
+      return;
+    }
+    wide_.resize(count);
+    for (std::size_t i = 0; i < count; ++i)
+      wide_[i] = {key_of(i), static_cast<std::uint32_t>(i)};
+    radixSort(wide_, bits, [](const std::pair<std::uint64_t, std::uint32_t>& v) { return v.first; });
+  }
+
+  std::size_t
+  size() const
+  {
+    return packed_.empty() ? wide_.size() : packed_.size();
+  }
+  std::uint64_t
+  key(std::size_t i) const
+  {
+    return packed_.empty() ? wide_[i].first : packed_[i] >> 32;
+  }
+  std::uint32_t
+  index(std::size_t i) const
+  {
+    return packed_.empty() ? wide_[i].second : static_cast<std::uint32_t>(packed_[i]);
+  }
+
+private:
+  std::vector<std::uint64_t> packed_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> wide_;
+};
+
 /** Cell coordinates of \a count positions (cubes of edge \a cell_size from \a min; \a max
  * bounds the positions), packed into keys ordered z, then y, then x with as few bits per
  * axis as the extent needs, and sorted. Coordinates are capped at 2^21 - 1 cells per
  * axis. The cells are cellCoordinates()'s, the same as TargetDistributions'. */
 template <typename PositionOf>
-std::vector<KeyedIndex>
+SortedCells
 sortedCellKeys(std::size_t count,
                const PositionOf& position_of,
                const Eigen::Vector3f& min,
@@ -71,29 +125,10 @@ sortedCellKeys(std::size_t count,
   // Cells grow monotonically with the position: the box's far corner has the largest.
   const Eigen::Matrix<std::uint64_t, 3, 1> max_cell = cellOf(max);
   const int bx = bitsFor(max_cell.x()), by = bitsFor(max_cell.y()), bz = bitsFor(max_cell.z());
-  std::vector<KeyedIndex> keyed(count);
-  for (std::size_t i = 0; i < count; ++i) {
+  return SortedCells(count, bx + by + bz, [&](std::size_t i) {
     const auto cell = cellOf(position_of(i));
-    keyed[i] = {(cell.z() << (bx + by)) | (cell.y() << bx) | cell.x(),
-                static_cast<std::uint32_t>(i)};
-  }
-  radixSortByKey(keyed, bx + by + bz);
-  return keyed;
-}
-
-/** Bounding box of the \a count > 0 positions. */
-template <typename PositionOf>
-void
-boundingBox(std::size_t count,
-            const PositionOf& position_of,
-            Eigen::Vector3f& min,
-            Eigen::Vector3f& max)
-{
-  min = max = position_of(0);
-  for (std::size_t i = 1; i < count; ++i) {
-    min = min.cwiseMin(position_of(i));
-    max = max.cwiseMax(position_of(i));
-  }
+    return (cell.z() << (bx + by)) | (cell.y() << bx) | cell.x();
+  });
 }
 
 /** Sums of the offsets d of points (or weighted samples) from an anchor and of their
@@ -170,16 +205,16 @@ makeSourceSamples(const PointList& points, double cell_size)
   Eigen::Vector3f min, max;
   boundingBox(points.size(), point, min, max);
   out.grid_origin = min;
-  const std::vector<KeyedIndex> keyed = sortedCellKeys(points.size(), point, min, max, cell_size);
+  const SortedCells keyed = sortedCellKeys(points.size(), point, min, max, cell_size);
   for (std::size_t begin = 0; begin < keyed.size();) {
     std::size_t end = begin + 1;
-    while (end < keyed.size() && keyed[end].first == keyed[begin].first)
+    while (end < keyed.size() && keyed.key(end) == keyed.key(begin))
       ++end;
     // Relative to the cell's first point, for accuracy.
-    const Eigen::Vector3d anchor = points[keyed[begin].second].cast<double>();
+    const Eigen::Vector3d anchor = points[keyed.index(begin)].cast<double>();
     OffsetSums sums;
     for (std::size_t k = begin; k < end; ++k) {
-      const Eigen::Vector3f& p = points[keyed[k].second];
+      const Eigen::Vector3f& p = points[keyed.index(k)];
       sums.add(p.x() - anchor.x(), p.y() - anchor.y(), p.z() - anchor.z());
     }
     appendSummary(out, anchor, sums);
@@ -205,19 +240,19 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
     out.point_count = fine.point_count;
     out.grid_origin = min; // the same corner at every level: coarse cells nest fine ones
     // The same cells as makeSourceSamples at the coarser size, for the finer centroids.
-    const std::vector<KeyedIndex> keyed = sortedCellKeys(
+    const SortedCells keyed = sortedCellKeys(
         fine.samples.size(),
         [&](std::size_t i) -> const Eigen::Vector3f& { return fine.samples[i].position; }, min,
         max, out.cell_size);
     for (std::size_t begin = 0; begin < keyed.size();) {
       std::size_t end = begin + 1;
-      while (end < keyed.size() && keyed[end].first == keyed[begin].first)
+      while (end < keyed.size() && keyed.key(end) == keyed.key(begin))
         ++end;
       // Merge by the parallel-axis rule, relative to the first centroid.
-      const Eigen::Vector3d anchor = fine.samples[keyed[begin].second].position.cast<double>();
+      const Eigen::Vector3d anchor = fine.samples[keyed.index(begin)].position.cast<double>();
       OffsetSums sums;
       for (std::size_t k2 = begin; k2 < end; ++k2) {
-        const SourceSample& f = fine.samples[keyed[k2].second];
+        const SourceSample& f = fine.samples[keyed.index(k2)];
         sums.add(f.position.x() - anchor.x(), f.position.y() - anchor.y(),
                  f.position.z() - anchor.z(), f.count, f.covariance);
       }
