@@ -74,6 +74,9 @@ printHelp(const char* program)
       "                        that a slow spell of a shared machine spreads over all\n"
       "                        bins instead of the bins it coincides with (default 0: in\n"
       "                        order); the rows are the same\n"
+      "  -reuse_target         MI keeps its prepared target while consecutive alignments\n"
+      "                        share the target cloud (scan to map: one map, many scans;\n"
+      "                        use with -directions forward); other methods are unchanged\n"
       "  -backend cpu|opencl|auto   where MI's cost evaluations run (default cpu)\n"
       "  -directions both|forward|backward   (default both)\n"
       "  -perturb T,YAW        guess = reference perturbed by T m (random horizontal\n"
@@ -107,6 +110,7 @@ struct Options {
   std::string shard_arg, list_path;
   int frames = 10, stride = 1, seed = 1, repeat = 1, shuffle_seed = 0;
   int shard = 1, shards = 1;
+  bool reuse_target = false;
   double max_yaw = 20.0;
   std::vector<double> distance{1.0, 10.0}, perturb, success{0.5, 2.0};
   std::vector<std::string> methods;
@@ -137,6 +141,7 @@ parseOptions(int argc, char** argv, const MiArguments& mi, Options& o)
   pcl::console::parse_argument(argc, argv, "-seed", o.seed);
   pcl::console::parse_argument(argc, argv, "-repeat", o.repeat);
   pcl::console::parse_argument(argc, argv, "-shuffle", o.shuffle_seed);
+  o.reuse_target = pcl::console::find_switch(argc, argv, "-reuse_target");
   pcl::console::parse_argument(argc, argv, "-max_yaw", o.max_yaw);
   {
     pcl_mi::Parameters p;
@@ -398,6 +403,8 @@ alignAll(const Options& o,
     }
     csv << csvHeader(true) << '\n';
   }
+  ReusedTargets reused;
+  ReusedTargets* reuse = o.reuse_target ? &reused : nullptr;
   const auto started = std::chrono::steady_clock::now();
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const Pair& p = pairs[k];
@@ -413,13 +420,16 @@ alignAll(const Options& o,
       std::printf("[%3zu/%zu] %s %d->%d %5.2f m:", k + 1, pairs.size(), p.sequence.c_str(),
                   p.source_frame, p.target_frame, truth.translation);
     for (const auto& m : o.methods) {
-      Row row = runMethod(m, src, tgt, p, mi);
-      if (o.repeat > 1) { // report the median time; the results are identical every run
-        std::vector<double> seconds{row.seconds};
+      Row row = runMethod(m, src, tgt, p, mi, reuse);
+      if (o.repeat > 1) { // report the median run's times; the results are identical every run
+        std::vector<Row> runs{row};
         for (int r = 1; r < o.repeat; ++r)
-          seconds.push_back(runMethod(m, src, tgt, p, mi).seconds);
-        std::nth_element(seconds.begin(), seconds.begin() + o.repeat / 2, seconds.end());
-        row.seconds = seconds[static_cast<std::size_t>(o.repeat / 2)];
+          runs.push_back(runMethod(m, src, tgt, p, mi, reuse));
+        std::nth_element(runs.begin(), runs.begin() + o.repeat / 2, runs.end(),
+                         [](const Row& a, const Row& b) { return a.seconds < b.seconds; });
+        const Row& middle = runs[static_cast<std::size_t>(o.repeat / 2)];
+        row.seconds = middle.seconds;
+        row.stages = middle.stages;
       }
       row.sequence = p.sequence;
       row.target = p.target_frame;
@@ -467,7 +477,7 @@ run(int argc, char** argv)
            {"-repeat", OptionValue::Number},   {"-shuffle", OptionValue::Number},
            {"-directions", OptionValue::Text}, {"-perturb", OptionValue::Numbers},
            {"-seed", OptionValue::Number},     {"-success", OptionValue::Numbers},
-           {"-shard", OptionValue::Text}},
+           {"-shard", OptionValue::Text},      {"-reuse_target", OptionValue::None}},
           pcl_mi::apps::miOptionTable(pcl_mi::apps::MiOptionSet::Tuning)));
   if (!bad_option.empty()) {
     print_error("pcl_mi_compare: %s\n", bad_option.c_str());

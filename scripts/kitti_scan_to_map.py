@@ -4,7 +4,7 @@ sequence's other stored scans, and a pair list for `pcl_mi_compare -list ... -di
 forward`.
 
 usage: kitti_scan_to_map.py KITTI_ROOT OUT_DIR [--sequences 00,01,02,05,08]
-                            [--sources 1-9] [--poses semantic|gt]
+                            [--sources 1-9] [--poses semantic|gt] [--shared-map]
 
 The map of source scan k holds every other stored scan j != k, moved into the frame of the
 first stored scan with the reference poses (Tv_j = inv(Tr) * P_j * Tr); the list row is
@@ -12,6 +12,11 @@ first stored scan with the reference poses (Tv_j = inv(Tr) * P_j * Tr); the list
 guess is off by scan k's motion from the first scan. The map is built with the same poses
 that score the result, so the errors measure agreement with them. Each map of ten KITTI
 scans is about 17 MB.
+
+With --shared-map, each sequence gets one map, of its stored scans that are not sources
+(always including the first), and every source scan is aligned against it: the list's rows
+of a sequence share their target, as in a localisation loop that sets the map once
+(`pcl_mi_compare -list OUT/list.txt -directions forward -reuse_target`).
 """
 import argparse
 import os
@@ -35,6 +40,8 @@ def main():
                         help="source frames, e.g. 1-9 or 3,5 (the first stored scan is the "
                              "map's frame)")
     parser.add_argument("--poses", choices=["semantic", "gt"], default="semantic")
+    parser.add_argument("--shared-map", action="store_true",
+                        help="one map per sequence of the scans that are not sources")
     args = parser.parse_args()
     if "-" in args.sources:
         first, last = (int(v) for v in args.sources.split("-"))
@@ -52,22 +59,37 @@ def main():
         for k in sources:
             if k not in scans:
                 sys.exit(f"kitti_scan_to_map: sequence {seq} has no stored frame {k}")
+        if args.shared_map and frames[0] in sources:
+            sys.exit(f"kitti_scan_to_map: with --shared-map the first stored frame "
+                     f"({frames[0]}) is the map's frame and cannot be a source")
+
+        def write_map(name, left_out):
             parts = []
             for j in frames:
-                if j == k:
+                if j in left_out:
                     continue
                 t = origin @ velo[j]
                 moved = scans[j].copy()
                 moved[:, :3] = (scans[j][:, :3].astype(np.float64) @ t[:3, :3].T
                                 + t[:3, 3]).astype(np.float32)
                 parts.append(moved)
-            map_name = f"map_{seq}_{k:06d}.bin"
-            np.concatenate(parts).tofile(os.path.join(args.out, map_name))
+            if not parts:
+                sys.exit(f"kitti_scan_to_map: sequence {seq} leaves no scan for its map")
+            np.concatenate(parts).tofile(os.path.join(args.out, name))
+            return len(parts)
+
+        if args.shared_map:
+            map_name = f"map_{seq}.bin"
+            map_scans = write_map(map_name, set(sources))
+        for k in sources:
+            if not args.shared_map:
+                map_name = f"map_{seq}_{k:06d}.bin"
+                map_scans = write_map(map_name, {k})
             scan_name = f"{seq}_{k:06d}.bin"
             scans[k].tofile(os.path.join(args.out, scan_name))
             rows.append(list_row(scan_name, map_name, origin @ velo[k]))
         print(f"sequence {seq}: {len(sources)} scans, each against a map of "
-              f"{len(frames) - 1} scans")
+              f"{map_scans} scans" + (" (one map)" if args.shared_map else ""))
     print(f"{len(rows)} cases in {write_pair_list(args.out, rows)}")
 
 

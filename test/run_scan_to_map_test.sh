@@ -28,3 +28,26 @@ grep -q "has no stored frame 5" "$work/bad.txt"
 "$compare" -list "$work/map/list.txt" -methods mi-varz -directions forward -csv "$work/map.csv"
 awk -F, 'NR > 1 { n++; if ($10 >= 0.1 || $11 >= 0.5) { print "out of bound: " $0; bad++ } }
          END { if (n != 1 || bad) exit 1; print n " alignment within 0.1 m / 0.5 deg" }' "$work/map.csv"
+# One shared map, and MI keeping it between rows: the same case twice, the second against the
+# prepared map, gives the same pose as a fresh registration.
+"$script" "$data/kitti" "$work/shared" --sequences 00 --sources 9 --shared-map | grep -q "(one map)"
+cmp "$work/shared/map_00.bin" "$work/map/map_00_000009.bin"
+if "$script" "$data/kitti" "$work/bad" --sequences 00 --sources 0 --shared-map 2> "$work/bad.txt"; then
+  echo "a shared map without its first frame was not refused"; exit 1
+fi
+grep -q "cannot be a source" "$work/bad.txt"
+row=$(cat "$work/shared/list.txt")
+printf '%s\n%s\n' "$row" "$row" > "$work/shared/list.txt"
+"$compare" -list "$work/shared/list.txt" -methods mi-varz -directions forward -reuse_target \
+  -csv "$work/reused.csv" | tee "$work/reused.txt"
+grep -q "MI stages, median per alignment" "$work/reused.txt"
+/usr/bin/python3 - "$work/map.csv" "$work/reused.csv" <<'PY'
+import csv, sys
+fresh = list(csv.DictReader(open(sys.argv[1])))
+reused = list(csv.DictReader(open(sys.argv[2])))
+assert len(fresh) == 1 and len(reused) == 2, (len(fresh), len(reused))
+keys = [k for k in fresh[0] if k.startswith("estimate_")]
+for r in reused:
+    assert all(r[k] == fresh[0][k] for k in keys), "a reused map changed the pose"
+print("reused map: the same pose as a fresh registration, twice")
+PY

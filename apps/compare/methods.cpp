@@ -127,7 +127,8 @@ runMethod(const std::string& chain,
           const Cloud::Ptr& source,
           const Cloud::Ptr& target,
           const Pair& pair,
-          const MiArguments& mi)
+          const MiArguments& mi,
+          ReusedTargets* reused)
 {
   // A chain "A+B" runs B from A's result; its time is the sum, its evaluations A's.
   const auto plus = chain.rfind('+');
@@ -138,7 +139,17 @@ runMethod(const std::string& chain,
     previous = runMethod(chain.substr(0, plus), source, target, pair, mi);
     start_pair.guess = previous.estimate;
   }
-  auto reg = makeMethod(name, mi);
+  const bool reuse = reused && plus == std::string::npos && name.rfind("mi-", 0) == 0;
+  std::unique_ptr<pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>> fresh;
+  ReusedTargets::Entry* kept = reuse ? &reused->by_method[name] : nullptr;
+  if (!kept || !kept->registration)
+    fresh = makeMethod(name, mi);
+  if (kept && fresh) {
+    kept->registration = std::move(fresh);
+    kept->target = nullptr;
+  }
+  pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>* reg =
+      kept ? kept->registration.get() : fresh.get();
   const auto start = std::chrono::steady_clock::now();
   Cloud::Ptr input = source, reference_cloud = target;
   if (methodLeaf(name) > 0.0f) {
@@ -153,7 +164,10 @@ runMethod(const std::string& chain,
     filter.filter(*input);
   }
   reg->setInputSource(input);
-  reg->setInputTarget(reference_cloud);
+  if (!kept || kept->target != reference_cloud.get())
+    reg->setInputTarget(reference_cloud);
+  if (kept)
+    kept->target = reference_cloud.get();
   Cloud aligned;
   reg->align(aligned, start_pair.guess.cast<float>());
   Row o;
@@ -168,8 +182,9 @@ runMethod(const std::string& chain,
   o.rotation_error = e.rotation_deg;
   o.converged = reg->hasConverged();
   o.evaluations = previous.evaluations;
-  if (auto* mi = dynamic_cast<pcl::MutualInformationRegistration<pcl::PointXYZ>*>(reg.get())) {
+  if (auto* mi = dynamic_cast<pcl::MutualInformationRegistration<pcl::PointXYZ>*>(reg)) {
     o.evaluations = mi->getNumberOfEvaluations();
+    o.stages = mi->getLastResult().stages;
     const pcl_mi::Verification& v = mi->getVerification();
     o.confidence = v.confidence;
     for (int i = 0; i < 6; ++i)

@@ -12,6 +12,7 @@
 #include <pcl/point_types.h>
 #include <pcl/registration/registration.h>
 
+#include <map>
 #include <memory>
 #include <string>
 
@@ -34,13 +35,26 @@ makeMethod(const std::string& name, const MiArguments& mi_arguments);
 bool
 knownMethod(const std::string& name, const MiArguments& mi);
 
-/** Runs the method (or chain) \a chain on \a pair: pose, errors, time, evaluations. */
+/** MI registrations kept between pairs (-reuse_target): one per method, with the target
+ * it was given, so that a pair with the same target cloud only hands over its source. */
+struct ReusedTargets {
+  struct Entry {
+    std::unique_ptr<pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>> registration;
+    const Cloud* target = nullptr;
+  };
+  std::map<std::string, Entry> by_method;
+};
+
+/** Runs the method (or chain) \a chain on \a pair: pose, errors, time, evaluations. With
+ * \a reused, an MI method that is not part of a chain keeps its registration there and
+ * skips setInputTarget() when the target is the previous one's. */
 Row
 runMethod(const std::string& chain,
           const Cloud::Ptr& source,
           const Cloud::Ptr& target,
           const Pair& pair,
-          const MiArguments& mi);
+          const MiArguments& mi,
+          ReusedTargets* reused = nullptr);
 
 } // namespace compare
 } // namespace pcl_mi

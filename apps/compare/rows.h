@@ -8,6 +8,8 @@
 
 #include <cmath>
 #include <ostream>
+#include <pcl_mi/types.h>
+
 #include <string>
 #include <vector>
 
@@ -41,6 +43,8 @@ struct Row {
    * search converged (0/1), inliers, inlier fraction, peak contrast, weakest contrast,
    * normalised MI and the smaller free-direction contrast. NaN as above. */
   double evidence[7] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+  /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
+  std::vector<pcl_mi::StageTiming> stages;
 };
 
 /** The CSV header; \a with_poses adds the travel-frame errors and both transforms. */

@@ -70,6 +70,54 @@ methodColumnWidth(const std::vector<std::string>& methods)
   return width;
 }
 
+/** Where MI's time goes: per method, the median over its rows of each stage of
+ * pcl_mi::AlignmentResult::stages (the search's levels summed), and of what lies outside
+ * the engine (the adapter's copies of the clouds, the output cloud). Rows read from a CSV
+ * carry no stages and are left out. */
+void
+printStages(const std::vector<Row>& rows, const std::vector<std::string>& methods)
+{
+  const char* const columns[] = {"prepare", "search", "refinement", "verification", "outside",
+                                 "total"};
+  const int name_width = methodColumnWidth(methods);
+  bool header = false;
+  for (const auto& m : methods) {
+    std::vector<double> ms[6];
+    for (const auto& row : rows) {
+      if (row.method != m || row.stages.empty())
+        continue;
+      double stage[6] = {0, 0, 0, 0, 0, 1000.0 * row.seconds};
+      for (const StageTiming& t : row.stages) {
+        const int k = t.name == "prepare"        ? 0
+                      : t.name == "refinement"   ? 2
+                      : t.name == "verification" ? 3
+                                                 : 1; // "search ...", "restarts"
+        stage[k] += t.total_ms;
+      }
+      stage[4] = stage[5] - stage[0] - stage[1] - stage[2] - stage[3];
+      for (int k = 0; k < 6; ++k)
+        ms[k].push_back(stage[k]);
+    }
+    if (ms[0].empty())
+      continue;
+    if (!header) {
+      std::printf("\nMI stages, median per alignment [ms]\n%-*s %6s", name_width, "method",
+                  "rows");
+      for (const char* c : columns)
+        std::printf(" %12s", c);
+      std::printf("\n");
+      header = true;
+    }
+    std::printf("%-*s %6zu", name_width, m.c_str(), ms[0].size());
+    for (auto& v : ms)
+      std::printf(" %12.2f", median(v));
+    std::printf("\n");
+  }
+  if (header)
+    std::printf("(each column is its own median, so they need not add up to the total)\n");
+}
+
+
 /** Prints one table: rows are bins of an initial-error value, columns the methods. */
 void
 printTable(const std::string& title,
@@ -228,6 +276,7 @@ printTables(const std::vector<Row>& rows,
   }
   std::printf("(errors in m and deg; vs_first: median time relative to %s)\n",
               methods.front().c_str());
+  printStages(rows, methods);
   printVerdict(rows, methods, bound);
   printBias(rows, methods, bound);
 }
