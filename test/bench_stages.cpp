@@ -207,7 +207,8 @@ BM_Verification(benchmark::State& state)
   for (auto _ : state)
     benchmark::DoNotOptimize(pcl_mi::core::verifyPose(
         problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
-        problem.levelResolution(0), histogram, problem.target().centroid));
+        problem.levelResolution(0), histogram, problem.target().centroid,
+        problem.parameters().num_threads));
 }
 BENCHMARK(BM_Verification)->Unit(benchmark::kMillisecond);
 

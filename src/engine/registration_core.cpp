@@ -173,7 +173,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   const core::LocalPose at = problem.toLocal(result.transformation);
   result.verification = core::verifyPose(
       problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
-      problem.levelResolution(0), impl_->scratch, problem.target().centroid);
+      problem.levelResolution(0), impl_->scratch, problem.target().centroid, p.num_threads);
   result.search_converged = found.best.converged;
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);

@@ -5,6 +5,7 @@
 
 #include "features/mutual_information.h"
 #include "util/left_increment.h"
+#include "util/parallel.h"
 #include "verify/pose_evidence.h"
 
 #include <Eigen/Eigenvalues>
@@ -13,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <iterator>
 #include <sstream>
 
 namespace pcl_mi {
@@ -137,21 +139,15 @@ private:
   const double base_;
 };
 
-/** Peak and weakest contrast: the inliers lost one voxel (\a step) along each axis, or
- * turned by \a turn about it, either way. */
+/** The share of the inliers \a lost one voxel (\a step) along each axis, or turned by
+ * \a turn about it, either way: their mean is the peak contrast, their least the weakest. */
 void
-probeContrast(const InlierProbe& probe, double step, double turn, Verification& v)
+probeContrast(const InlierProbe& probe, double step, double turn, double lost[6])
 {
-  double sum = 0.0, weakest = 1.0;
-  for (int axis = 0; axis < 6; ++axis) {
-    const double lost = axis < 3 ? probe.lostEitherWay(Eigen::Vector3d::Zero(),
-                                                       step * Eigen::Vector3d::Unit(axis))
-                                 : probe.lostTurningEitherWay(axis - 3, turn);
-    sum += lost;
-    weakest = std::min(weakest, lost);
-  }
-  v.peak_contrast = sum / 6.0;
-  v.weakest_contrast = weakest;
+  for (int axis = 0; axis < 6; ++axis)
+    lost[axis] = axis < 3 ? probe.lostEitherWay(Eigen::Vector3d::Zero(),
+                                                step * Eigen::Vector3d::Unit(axis))
+                          : probe.lostTurningEitherWay(axis - 3, turn);
 }
 
 /** Observability and covariance from the point-to-plane information of \a at. */
@@ -222,10 +218,26 @@ verifyPose(const TargetDistributions& target,
            const Eigen::Vector3d& translation,
            double resolution,
            const JointHistogram& histogram,
-           const Eigen::Vector3d& target_centroid)
+           const Eigen::Vector3d& target_centroid,
+           int num_threads)
 {
   Verification v;
-  const PoseEvidence at = gatherPoseEvidence(target, source, rotation, translation, 1, true);
+  // The evidence at the result and the contrast probes are independent: one thread each.
+  // Every count and sum is its own task's, so the figures do not depend on the threads.
+  PoseEvidence at;
+  const double radius = std::max(rmsRadius(source), resolution);
+  const InlierProbe probe(target, source, rotation, translation);
+  double contrast[6] = {0, 0, 0, 0, 0, 0};
+  parallelFor(2, num_threads, [&](int task) {
+    if (task == 0)
+      at = gatherPoseEvidence(target, source, rotation, translation, 1, true);
+    else
+      probeContrast(probe, resolution, resolution / radius, contrast);
+  });
+  v.peak_contrast = (contrast[0] + contrast[1] + contrast[2] + contrast[3] + contrast[4] +
+                     contrast[5]) /
+                    6.0;
+  v.weakest_contrast = *std::min_element(std::begin(contrast), std::end(contrast));
   if (at.samples > 0) {
     v.inliers = at.inliers;
     v.overlap = static_cast<double>(at.matched) / at.samples;
@@ -235,19 +247,17 @@ verifyPose(const TargetDistributions& target,
   const double floor_entropy = std::min(h.source, h.target);
   v.normalized_mi = floor_entropy > 0.0 ? h.mutualInformation() / floor_entropy : 0.0;
 
-  const double radius = std::max(rmsRadius(source), resolution);
-  const InlierProbe probe(target, source, rotation, translation);
-  probeContrast(probe, resolution, resolution / radius, v);
   planeInformation(at, radius, target_centroid, v);
   v.confidence = confidenceOf(v);
   // The two least observable directions ([t, omega * radius]), moved one voxel either way.
   bool free[2] = {false, false};
-  for (int k = 0; k < 2; ++k) {
+  parallelFor(2, num_threads, [&](int k) {
     const Eigen::Matrix<double, 6, 1> direction = v.observability_directions.col(k);
     v.free_direction_contrast[k] = probe.lostEitherWay(resolution * direction.tail<3>() / radius,
                                                        resolution * direction.head<3>());
+  });
+  for (int k = 0; k < 2; ++k)
     free[k] = v.free_direction_contrast[k] < kFreeDirectionContrast;
-  }
   if (free[0] || free[1] || at.inliers < kMinimumInliers)
     v.covariance.setZero();
 

@@ -22,7 +22,8 @@ constexpr double kReliableConfidence = 0.9;
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose, \a target_centroid the target local frame's origin in the target's
- * input frame (the covariance is given about the input frame's origin). */
+ * input frame (the covariance is given about the input frame's origin). It runs on up to
+ * \a num_threads threads, with the same result on any number. */
 Verification
 verifyPose(const TargetDistributions& target,
            const SourceSamples& source,
@@ -30,7 +31,8 @@ verifyPose(const TargetDistributions& target,
            const Eigen::Vector3d& translation,
            double resolution,
            const JointHistogram& histogram,
-           const Eigen::Vector3d& target_centroid);
+           const Eigen::Vector3d& target_centroid,
+           int num_threads = 1);
 
 } // namespace core
 } // namespace pcl_mi
