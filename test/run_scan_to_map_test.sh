@@ -30,7 +30,8 @@ awk -F, 'NR > 1 { n++; if ($10 >= 0.1 || $11 >= 0.5) { print "out of bound: " $0
          END { if (n != 1 || bad) exit 1; print n " alignment within 0.1 m / 0.5 deg" }' "$work/map.csv"
 # One shared map, and MI keeping it between rows: the same case twice, the second against the
 # prepared map, gives the same pose as a fresh registration.
-"$script" "$data/kitti" "$work/shared" --sequences 00 --sources 9 --shared-map | grep -q "(one map)"
+"$script" "$data/kitti" "$work/shared" --sequences 00 --sources 9 --shared-map > "$work/shared.txt"
+grep -q "(one map)" "$work/shared.txt"
 cmp "$work/shared/map_00.bin" "$work/map/map_00_000009.bin"
 if "$script" "$data/kitti" "$work/bad" --sequences 00 --sources 0 --shared-map 2> "$work/bad.txt"; then
   echo "a shared map without its first frame was not refused"; exit 1
