@@ -55,6 +55,10 @@ miOptionTable(MiOptionSet set)
        format("position starts used instead when either cloud covers less than\n"
               "180 deg of azimuth about its origin (default %g; 0 = off)",
               d.search.narrow_view_position_starts)},
+      {"-narrow_view_tilt", V::Number, "-narrow_view_tilt DEG",
+       format("roll and pitch steps used instead, when larger, for a narrow field\n"
+              "of view, turning the source about its sensor (default %g; 0 = off)",
+              d.search.narrow_view_tilt_step * 180.0 / M_PI)},
       {"-levels", V::Number, "-levels N",
        format("coarse-to-fine pyramid levels (default %g; 1 = single grid)",
               d.grid.pyramid_levels)},
@@ -157,6 +161,8 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
   readInt(argc, argv, "-heading_starts", p.search.heading_starts);
   readInt(argc, argv, "-position_starts", p.search.position_starts);
   readInt(argc, argv, "-narrow_view_starts", p.search.narrow_view_position_starts);
+  if (const char* v = optionValue(argc, argv, "-narrow_view_tilt"))
+    p.search.narrow_view_tilt_step = std::atof(v) * M_PI / 180.0;
   readInt(argc, argv, "-levels", p.grid.pyramid_levels);
   readInt(argc, argv, "-subdivision", p.sampling.source_subdivision);
   readInt(argc, argv, "-restarts", p.search.restarts);

@@ -267,6 +267,7 @@ TEST(Registration, PositionStartsAlignANarrowFieldOfView)
       reg.align(aligned);
       EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
       EXPECT_EQ(reg.getLastResult().position_starts, explicit_starts ? 4 : 8);
+      EXPECT_TRUE(reg.getLastResult().turned_about_sensor);
       EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
                        backward ? reference.inverse().eval() : reference);
     }
@@ -277,7 +278,53 @@ TEST(Registration, PositionStartsAlignANarrowFieldOfView)
   Cloud aligned;
   reg.align(aligned);
   EXPECT_EQ(reg.getLastResult().position_starts, 0);
+  EXPECT_FALSE(reg.getLastResult().turned_about_sensor);
   EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+}
+
+TEST(Registration, NarrowViewTurnsAboutTheSensorOnlyWhereItIsNear)
+{
+  // The same 70 deg view: turned about its sensor with wider tilt steps by default, about
+  // its centroid with the tilt step off, and about its centroid where the clouds lie far
+  // from their frame's origin (a map frame), which cannot be the sensor.
+  auto cutToView = [](const Cloud::Ptr& cloud, float offset) {
+    Cloud::Ptr cut(new Cloud);
+    for (auto point : *cloud)
+      if (std::abs(std::atan2(point.y, point.x)) <= 35.0 * M_PI / 180.0) {
+        point.x += offset;
+        cut->push_back(point);
+      }
+    return cut;
+  };
+  const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
+  for (const float offset : {0.0f, 2000.0f})
+    for (const double tilt : {0.35, 0.0}) {
+      SCOPED_TRACE(testing::Message() << "offset " << offset << ", tilt step " << tilt);
+      pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+      reg.setNarrowViewTiltStep(tilt);
+      EXPECT_EQ(reg.getNarrowViewTiltStep(), tilt);
+      reg.setInputSource(cutToView(test_data::loadScan("00", 9), offset));
+      reg.setInputTarget(cutToView(test_data::loadScan("00", 0), offset));
+      Cloud aligned;
+      reg.align(aligned);
+      EXPECT_EQ(reg.getLastResult().turned_about_sensor, offset == 0.0f && tilt > 0.0);
+      if (offset == 0.0f) // the shifted pair's reference is another transform
+        EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+    }
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  EXPECT_FALSE(reg.setParameters([] {
+    pcl_mi::Parameters p;
+    p.search.narrow_view_tilt_step = -0.1;
+    return p;
+  }()));
+  EXPECT_NE(pcl_mi::Parameters([] {
+              pcl_mi::Parameters p;
+              p.search.narrow_view_tilt_step = 4.0;
+              return p;
+            }())
+                .validate()
+                .find("narrow-view tilt step"),
+            std::string::npos);
 }
 
 TEST(Registration, NoReturnMarkersDoNotMakeAnOptimum)

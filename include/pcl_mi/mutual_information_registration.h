@@ -259,6 +259,21 @@ public:
     return core_.parameters().search.narrow_view_position_starts;
   }
 
+  /** \brief Roll and pitch simplex steps (rad) used instead, when larger, where either cloud
+   * has a narrow field of view; the search then also turns the source about its sensor
+   * (default 0.35; 0 = never; pcl_mi::SearchParameters::narrow_view_tilt_step).
+   * getLastResult().turned_about_sensor says what was used. */
+  void
+  setNarrowViewTiltStep(double step)
+  {
+    setField("setNarrowViewTiltStep", &Params::search, &Search::narrow_view_tilt_step, step);
+  }
+  double
+  getNarrowViewTiltStep() const
+  {
+    return core_.parameters().search.narrow_view_tilt_step;
+  }
+
   /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of
    * the best one in each translation parameter; 0 (default) = 0.005 * resolution. */
   void

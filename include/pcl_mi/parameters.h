@@ -124,6 +124,13 @@ struct SearchParameters {
    * origin lies far from the sensor may look narrow and only cost the extra starts.
    * AlignmentResult::position_starts says what an alignment used. */
   int narrow_view_position_starts = 8;
+  /** Roll and pitch simplex steps (rad) used instead, when larger, for clouds with a narrow
+   * field of view (as for narrow_view_position_starts; 0 = never), whose search also turns
+   * the source about its sensor, the origin of its frame, where that lies within four RMS
+   * radii of its points: a handheld or solid-state sensor tilts by tens of degrees, and
+   * turning its cloud about its centroid, several metres ahead, would move the sensor
+   * sideways (docs/method.md, "Narrow field of view"). */
+  double narrow_view_tilt_step = 0.35;
   /** Restarts around the best vertex on the finest searched level, each with that level's
    * steps, alternating in sign: they lift the search out of the local optima the voxel
    * quantisation scatters near the peak. 0..100; each costs at least one iteration. */

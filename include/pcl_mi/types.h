@@ -147,6 +147,10 @@ struct AlignmentResult {
   /** Further starts around the guess the coarsest level used: position_starts, or
    * narrow_view_position_starts for a narrow field of view (0 when x and y are pinned). */
   int position_starts = 0;
+  /** The search turned the source about its sensor (the origin of its frame) with wider
+   * roll and pitch steps, as SearchParameters::narrow_view_tilt_step says for a narrow field
+   * of view; false where it turned it about its centroid. */
+  bool turned_about_sensor = false;
   /** Mutual information (nats) at the final transformation. */
   double mutual_information = 0.0;
   /** Empty on success, otherwise why the alignment failed. */

@@ -77,6 +77,7 @@ SearchParameters::operator==(const SearchParameters& o) const
   return simplex_steps == o.simplex_steps && symmetric_start == o.symmetric_start &&
          heading_starts == o.heading_starts && position_starts == o.position_starts &&
          narrow_view_position_starts == o.narrow_view_position_starts &&
+         narrow_view_tilt_step == o.narrow_view_tilt_step &&
          restarts == o.restarts && restart_scale == o.restart_scale &&
          translation_tolerance == o.translation_tolerance &&
          rotation_tolerance == o.rotation_tolerance;
@@ -94,6 +95,7 @@ Parameters::paper()
   p.search.restarts = 0;
   p.refinement.method = Refinement::None;
   p.search.narrow_view_position_starts = 0;
+  p.search.narrow_view_tilt_step = 0.0;
   p.grid.variance_z_binning.range_quantile = 0.0;
   p.grid.point_count_binning.range_quantile = 0.0;
   return p;
@@ -134,6 +136,8 @@ Parameters::validate() const
     s << "position starts must be 0..360, got " << f.position_starts;
   else if (f.narrow_view_position_starts < 0 || f.narrow_view_position_starts > 360)
     s << "narrow-view position starts must be 0..360, got " << f.narrow_view_position_starts;
+  else if (!(f.narrow_view_tilt_step >= 0.0 && f.narrow_view_tilt_step <= M_PI))
+    s << "the narrow-view tilt step must be 0..pi rad, got " << f.narrow_view_tilt_step;
   else if (g.pyramid_levels < 1 || g.pyramid_levels > 8)
     s << "pyramid levels must be 1..8, got " << g.pyramid_levels;
   else if (f.restarts < 0 || f.restarts > kMaxRestarts)

@@ -21,8 +21,9 @@ rotationFromRollPitchYaw(double roll, double pitch, double yaw);
  *     T(x) = Translate(t) * Translate(pivot) * R(roll, pitch, yaw) * Translate(-pivot) * guess
  *
  * The rotation turns the guessed source about \a pivot (the source centroid placed by the
- * guess), so rotation and translation parameters barely interact and a far-from-origin
- * scan is not swung around the world origin. Translation and yaw are in the target frame,
+ * guess, or, for a narrow field of view, its sensor), so rotation and translation
+ * parameters barely interact and a far-from-origin scan is not swung around the world
+ * origin. Translation and yaw are in the target frame,
  * the frame in which wheeled robots move mostly in x, y and yaw. */
 Eigen::Matrix4d
 transformFromParameters(const Vector6d& x,

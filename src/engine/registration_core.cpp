@@ -19,6 +19,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <cmath>
 
 namespace pcl_mi {
 
@@ -28,6 +29,11 @@ namespace {
  * (SearchParameters::narrow_view_position_starts): a spinning LiDAR's scan covers 360, a
  * solid-state sensor's its field of view. */
 constexpr double kNarrowViewDegrees = 180.0;
+
+/** Distance from the centroid, in RMS radii of the points, within which a cloud's origin
+ * is taken for its sensor (SearchParameters::narrow_view_tilt_step): a scan in its sensor's
+ * frame has it within two, a cloud in a far-off map frame far beyond. */
+constexpr double kSensorOriginRadii = 4.0;
 
 /** The search's cost: minus the MI of the pose a search vector stands for. */
 class MutualInformationCosts final : public core::LevelCosts {
@@ -133,25 +139,38 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     return result;
   }
 
-  // The search: rotations turn the guessed source about its centroid.
+  // The search: rotations turn the guessed source about its centroid, or, for a narrow
+  // field of view with wider tilt steps, about its sensor.
   const Parameters& p = problem.parameters();
-  const Eigen::Vector3d pivot = (guess * problem.source().centroid.homogeneous()).head<3>();
+  const core::LocalCloud& source = problem.source();
+  const bool narrow_view = std::min(problem.target().azimuth_coverage_deg,
+                                    source.azimuth_coverage_deg) < kNarrowViewDegrees;
+  const bool tilts = narrow_view && p.search.narrow_view_tilt_step > 0.0;
+  const bool about_sensor =
+      tilts && source.centroid.norm() <= kSensorOriginRadii * source.rms_radius;
+  const Eigen::Vector3d turned_about = about_sensor ? Eigen::Vector3d::Zero() : source.centroid;
+  const Eigen::Vector3d pivot = (guess * turned_about.homogeneous()).head<3>();
   const core::SearchSpace space(p, guess, pivot);
   core::CoarseToFineOptions options = space.searchOptions(p);
   options.first_level = problem.firstSearchedLevel();
   options.max_iterations = max_iterations;
-  const bool narrow_view = std::min(problem.target().azimuth_coverage_deg,
-                                    problem.source().azimuth_coverage_deg) < kNarrowViewDegrees;
   options.position_starts =
       options.x_index >= 0 || options.y_index >= 0
           ? std::max(p.search.position_starts,
                      narrow_view ? p.search.narrow_view_position_starts : 0)
           : 0;
+  if (tilts)
+    for (const int parameter : {3, 4}) { // roll, pitch; a pinned one stays pinned
+      const Eigen::Index i = space.index(parameter);
+      if (i >= 0 && std::abs(options.steps[i]) < p.search.narrow_view_tilt_step)
+        options.steps[i] = std::copysign(p.search.narrow_view_tilt_step, options.steps[i]);
+    }
   MutualInformationCosts costs(problem, space);
   const core::CoarseToFineResult found = core::searchCoarseToFine(costs, options);
   // The first search stage also timed the overlap check at the guess.
   result.stages.insert(result.stages.end(), found.stages.begin(), found.stages.end());
   result.position_starts = options.position_starts;
+  result.turned_about_sensor = about_sensor;
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
   result.transformation = space.pose(found.best.x);

@@ -133,8 +133,13 @@ makeLocalCloud(const PointList& points, double outlier_gap)
   // Measured in the input frame, before re-centring, since the sensor sits at its origin.
   cloud.azimuth_coverage_deg = azimuthCoverageDegrees(kept);
   cloud.centroid = sum / static_cast<double>(count);
-  for (auto& p : kept)
-    p = (p.cast<double>() - cloud.centroid).cast<float>();
+  double squared = 0.0;
+  for (auto& p : kept) {
+    const Eigen::Vector3d local = p.cast<double>() - cloud.centroid;
+    squared += local.squaredNorm();
+    p = local.cast<float>();
+  }
+  cloud.rms_radius = std::sqrt(squared / static_cast<double>(count));
   return cloud;
 }
 

@@ -32,6 +32,7 @@ struct LocalCloud {
   std::size_t non_finite = 0;                         ///< dropped: NaN/Inf coordinates
   std::size_t no_return = 0;                          ///< dropped: exactly (0, 0, 0)
   std::size_t outliers = 0;                           ///< dropped: far outliers
+  double rms_radius = 0.0; ///< root mean square distance of the kept points from the centroid
   /** Degrees of azimuth about the input frame's z axis in which the kept points lie (see
    * azimuthCoverageDegrees()). */
   double azimuth_coverage_deg = 0.0;
