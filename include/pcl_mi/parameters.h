@@ -129,7 +129,7 @@ struct SearchParameters {
    * the source about its sensor, the origin of its frame, where that lies within four RMS
    * radii of its points: a handheld or solid-state sensor tilts by tens of degrees, and
    * turning its cloud about its centroid, several metres ahead, would move the sensor
-   * sideways (docs/method.md, "Narrow field of view"). */
+   * sideways (docs/method.md, "Defaults derived from the data"). */
   double narrow_view_tilt_step = 0.35;
   /** Restarts around the best vertex on the finest searched level, each with that level's
    * steps, alternating in sign: they lift the search out of the local optima the voxel
