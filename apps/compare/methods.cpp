@@ -139,15 +139,15 @@ runMethod(const std::string& chain,
     previous = runMethod(chain.substr(0, plus), source, target, pair, mi);
     start_pair.guess = previous.estimate;
   }
-  const bool reuse = reused && plus == std::string::npos && name.rfind("mi-", 0) == 0;
+  ReusedTargets::Entry* kept =
+      reused && plus == std::string::npos && name.rfind("mi-", 0) == 0
+          ? &reused->by_method[name]
+          : nullptr;
   std::unique_ptr<pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>> fresh;
-  ReusedTargets::Entry* kept = reuse ? &reused->by_method[name] : nullptr;
-  if (!kept || !kept->registration)
+  if (kept && !kept->registration)
+    kept->registration = makeMethod(name, mi);
+  else if (!kept)
     fresh = makeMethod(name, mi);
-  if (kept && fresh) {
-    kept->registration = std::move(fresh);
-    kept->target = nullptr;
-  }
   pcl::Registration<pcl::PointXYZ, pcl::PointXYZ>* reg =
       kept ? kept->registration.get() : fresh.get();
   const auto start = std::chrono::steady_clock::now();

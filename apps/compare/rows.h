@@ -4,12 +4,12 @@
  */
 #pragma once
 
+#include <pcl_mi/types.h>
+
 #include <Eigen/Core>
 
 #include <cmath>
 #include <ostream>
-#include <pcl_mi/types.h>
-
 #include <string>
 #include <vector>
 

@@ -117,7 +117,6 @@ printStages(const std::vector<Row>& rows, const std::vector<std::string>& method
     std::printf("(each column is its own median, so they need not add up to the total)\n");
 }
 
-
 /** Prints one table: rows are bins of an initial-error value, columns the methods. */
 void
 printTable(const std::string& title,
