@@ -76,7 +76,10 @@ miOptionTable(MiOptionSet set)
        "when every point is evaluated, else cpu)"},
       {"-opencl_device", V::Numbers, "-opencl_device P,D",
        "OpenCL platform and device index as clinfo -l lists them (default:\n"
-       "the first GPU, else the first device)"}};
+       "the first GPU, else the first device)"},
+      {"-batch", V::Text, "-batch auto|on|off",
+       "hand the OpenCL backend a batch of poses per round trip (default auto:\n"
+       "on a GPU, not on a CPU device); the same result either way"}};
   if (set == MiOptionSet::All) {
     table.push_back({"-feature", V::Text, "-feature varz|count",
                      "voxel feature: variance of z or point count (default varz)"});
@@ -177,6 +180,9 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
   if (const char* v = optionValue(argc, argv, "-backend"))
     if (!parseBackend(v, p.backend.type))
       return std::string("-backend must be cpu, opencl or auto, got '") + v + "'";
+  if (const char* v = optionValue(argc, argv, "-batch"))
+    if (!parseBatching(v, p.backend.batching))
+      return std::string("-batch must be auto, on or off, got '") + v + "'";
   if (const char* v = optionValue(argc, argv, "-opencl_device")) {
     const std::vector<double> device = readNumbers(v);
     if (device.size() != 2)

@@ -69,7 +69,9 @@ usage()
       "                       00:0:9,02:0:6, the bundled pairs)\n"
       "  -poses semantic|gt|auto   reference poses: sequences/SS/poses.txt, poses/SS.txt,\n"
       "                       or the first where it exists, else the second (default auto)\n"
-      "  -backends LIST       cpu,opencl (default)\n"
+      "  -backends LIST       from cpu, opencl (batching auto), opencl-batch (always in\n"
+      "                       batches), opencl-single (one pose per round trip)\n"
+      "                       (default cpu,opencl)\n"
       "  -configs LIST        default (pcl_mi's defaults), paper (Parameters::paper(): 1 m\n"
       "                       grid, every point in every evaluation) (default both)\n"
       "  -repeat N            alignments per pair, direction, backend and configuration;\n"
@@ -207,7 +209,14 @@ run(int argc, char** argv)
     for (const auto& backend_name : split(backends_arg, ',')) {
       std::string error;
       pcl_mi::Parameters parameters = configParameters(config, error);
-      if (!error.empty() || !pcl_mi::parseBackend(backend_name, parameters.backend.type)) {
+      // opencl-batch and opencl-single: OpenCL with Batching::On and Off.
+      std::string backend_type = backend_name;
+      if (backend_name == "opencl-batch" || backend_name == "opencl-single") {
+        backend_type = "opencl";
+        parameters.backend.batching = backend_name == "opencl-batch" ? pcl_mi::Batching::On
+                                                                     : pcl_mi::Batching::Off;
+      }
+      if (!error.empty() || !pcl_mi::parseBackend(backend_type, parameters.backend.type)) {
         std::fprintf(stderr, "pcl_mi_backend_bench: %s\n",
                      error.empty() ? ("unknown backend '" + backend_name + "'").c_str()
                                    : error.c_str());

@@ -7,6 +7,10 @@
  *   histogram_*      per-voxel features and the joint histogram (map into local-memory
  *                    integer histograms, merged with atomics)
  *   clear_touched    reset the voxels this evaluation touched
+ * Every kernel scores a batch of poses at once: the second global dimension is the pose, and
+ * each pose has its own moments, touched list, counters, boxes, overlap and histogram at a
+ * fixed stride, so the poses of a batch never share a word and each one's histogram is the
+ * one a batch of one gives.
  * The per-voxel arithmetic is kernels/voxel_math.h's, which the build prepends to this
  * file and the CPU backend includes, so the histograms are bit-for-bit the CPU backend's.
  * OpenCL C 1.2; the feature values use double (cl_khr_fp64), as the CPU does.
@@ -60,12 +64,16 @@ static void store_box(__local float* box, const uint lid, const float3 mn, const
   box[6 * lid + 5] = mx.z;
 }
 
+/* Per-pose strides, in elements: moments (cells + 1), touched (samples), counters. */
+#define PCL_MI_NUM_COUNTERS 4u
+
 __kernel void map_samples(__global const pcl_mi_sample* samples,
                           const uint num_samples,
-                          const pcl_mi_grid_pose pose,
+                          __global const pcl_mi_grid_pose* poses,
                           const int4 dims,
                           const uint has_covariance,
                           __global Moments* moments,
+                          const uint moments_stride,
                           __global uint* touched,
                           __global uint* counters,   /* [0]: touched cells */
                           __global float* group_boxes, /* 6 per work-group */
@@ -73,6 +81,12 @@ __kernel void map_samples(__global const pcl_mi_sample* samples,
 {
   const uint i = get_global_id(0);
   const uint lid = get_local_id(0);
+  const size_t b = get_global_id(1);
+  const pcl_mi_grid_pose pose = poses[b];
+  moments += b * moments_stride;
+  touched += b * num_samples;
+  counters += b * PCL_MI_NUM_COUNTERS;
+  group_boxes += b * 6 * get_num_groups(0);
   float3 mn = (float3)(FLT_MAX, FLT_MAX, FLT_MAX);
   float3 mx = -mn;
   if (i < num_samples) {
@@ -123,6 +137,9 @@ __kernel void reduce_overlap(__global const float* group_boxes,
                              __local float* box)
 {
   const uint lid = get_local_id(0);
+  const size_t b = get_global_id(1);
+  group_boxes += b * 6 * num_groups;
+  overlap += b * 8;
   float3 mn = (float3)(FLT_MAX, FLT_MAX, FLT_MAX);
   float3 mx = -mn;
   for (uint g = lid; g < num_groups; g += get_local_size(0)) {
@@ -165,8 +182,10 @@ static int voxel_bin(const uint feature, const uint num_bins, const double max_v
 
 /* Source-occupied voxels: (target bin, source bin). */
 __kernel void histogram_touched(__global const uint* touched,
+                                const uint touched_stride,
                                 __global const uint* counters,
                                 __global const Moments* moments,
+                                const uint moments_stride,
                                 __global const uchar* target_bins,
                                 const uint feature,
                                 const uint num_bins,   /* occupied bins B */
@@ -176,6 +195,11 @@ __kernel void histogram_touched(__global const uint* touched,
                                 __local uint* local_joint)
 {
   const uint side = num_bins + 1;
+  const size_t b = get_global_id(1);
+  touched += b * touched_stride;
+  counters += b * PCL_MI_NUM_COUNTERS;
+  moments += b * moments_stride;
+  joint += b * side * side;
   for (uint k = get_local_id(0); k < side * side; k += get_local_size(0))
     local_joint[k] = 0;
   barrier(CLK_LOCAL_MEM_FENCE);
@@ -197,12 +221,17 @@ __kernel void histogram_touched(__global const uint* touched,
 __kernel void histogram_target_only(__global const pcl_mi_occupied_voxel* occupied,
                                     const uint num_occupied,
                                     __global const Moments* moments,
+                                    const uint moments_stride,
                                     __global const int* overlap,
                                     const uint num_bins,
                                     __global uint* joint,
                                     __local uint* local_joint)
 {
   const uint side = num_bins + 1;
+  const size_t b = get_global_id(1);
+  moments += b * moments_stride;
+  overlap += b * 8;
+  joint += b * side * side;
   for (uint k = get_local_id(0); k < side; k += get_local_size(0))
     local_joint[k] = 0;
   barrier(CLK_LOCAL_MEM_FENCE);
@@ -221,23 +250,33 @@ __kernel void histogram_target_only(__global const pcl_mi_occupied_voxel* occupi
 
 /* Zero the voxels this evaluation touched, ready for the next one. */
 __kernel void clear_touched(__global const uint* touched,
+                            const uint touched_stride,
                             __global const uint* counters,
-                            __global Moments* moments)
+                            __global Moments* moments,
+                            const uint moments_stride)
 {
   const uint i = get_global_id(0);
+  const size_t b = get_global_id(1);
+  touched += b * touched_stride;
+  counters += b * PCL_MI_NUM_COUNTERS;
+  moments += b * moments_stride;
   if (i < counters[0]) {
     const Moments zero = {0u, 0u, 0u, 0u};
     moments[touched[i]] = zero;
   }
 }
 
-/* Zeroes the joint histogram and the counters for the next evaluation. A kernel of its own
+/* Zeroes the joint histogram and the counters for the next evaluation (num_counters is
+ * PCL_MI_NUM_COUNTERS). A kernel of its own
  * (one work-group), queued after clear_touched, which still reads counters[0]. */
 __kernel void reset_histogram(__global uint* joint,
                               const uint joint_size,
                               __global uint* counters,
                               const uint num_counters)
 {
+  const size_t b = get_global_id(1);
+  joint += b * joint_size;
+  counters += b * num_counters;
   for (uint k = get_local_id(0); k < joint_size; k += get_local_size(0))
     joint[k] = 0u;
   for (uint k = get_local_id(0); k < num_counters; k += get_local_size(0))

@@ -144,6 +144,11 @@ toSettings(const py::kwargs& kwargs)
            throw py::value_error("backend must be 'cpu', 'opencl' or 'auto', got '" + text(v) +
                                  "'");
        }},
+      {"batching",
+       [&](const py::handle& v) {
+         if (!pcl_mi::parseBatching(text(v), p.backend.batching))
+           throw py::value_error("batching must be 'auto', 'on' or 'off', got '" + text(v) + "'");
+       }},
       {"opencl_platform", [&](const py::handle& v) { p.backend.opencl_platform = v.cast<int>(); }},
       {"opencl_device", [&](const py::handle& v) { p.backend.opencl_device = v.cast<int>(); }},
       {"num_threads", [&](const py::handle& v) { p.num_threads = v.cast<int>(); }},

@@ -275,6 +275,21 @@ TEST(BadParameters, BackendNamesParseStrictly)
   }
 }
 
+TEST(BadParameters, BatchingNamesParseStrictly)
+{
+  pcl_mi::Batching batching = pcl_mi::Batching::Auto;
+  EXPECT_TRUE(pcl_mi::parseBatching("on", batching));
+  EXPECT_EQ(batching, pcl_mi::Batching::On);
+  EXPECT_TRUE(pcl_mi::parseBatching("off", batching));
+  EXPECT_EQ(batching, pcl_mi::Batching::Off);
+  EXPECT_TRUE(pcl_mi::parseBatching("auto", batching));
+  EXPECT_EQ(batching, pcl_mi::Batching::Auto);
+  for (const char* bad : {"", "ON", "yes", "1"}) {
+    EXPECT_FALSE(pcl_mi::parseBatching(bad, batching)) << bad;
+    EXPECT_EQ(batching, pcl_mi::Batching::Auto) << bad;
+  }
+}
+
 TEST_F(BadInput, BaseClassIterationCapZeroIsReported)
 {
   // setMaximumIterations() is the base class's and cannot refuse; align() reports it.

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <functional>
@@ -158,4 +159,62 @@ TEST(CoarseToFine, TheBudgetCapsEveryIterationAndThreadsDoNotChangeTheResult)
   const auto b = pcl_mi::core::searchCoarseToFine(parallel, o);
   EXPECT_EQ(a.best.x, b.best.x);
   EXPECT_EQ(a.evaluations, b.evaluations);
+}
+
+namespace {
+
+/** SyntheticCosts that asks for batches (as a GPU backend does) and records their sizes. */
+class BatchedCosts : public SyntheticCosts {
+public:
+  using SyntheticCosts::SyntheticCosts;
+  bool
+  prefersBatches() const override
+  {
+    return true;
+  }
+  void
+  costs(int level, int slot, const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values)
+      override
+  {
+    EXPECT_EQ(slot, 0); // lockstep runs on one evaluator
+    largest = std::max(largest, xs.size());
+    SyntheticCosts::costs(level, slot, xs, values);
+  }
+  std::size_t largest = 0;
+};
+
+} // namespace
+
+TEST(CoarseToFine, BatchedLockstepSearchGivesTheSameResult)
+{
+  // Two basins, several heading and position starts, candidates on the finer levels and
+  // restarts: every part of the search runs batched and must choose what it chose alone.
+  const Eigen::Vector3d near(1.5, -0.5, 0.2), far(-6.0, 5.0, 2.5);
+  auto f = [&](int level, const Eigen::VectorXd& x) {
+    return std::min(bowl(x, near) + 0.3, 0.5 * bowl(x, far)) + 0.05 * std::sin(5.0 * x[0]) +
+           0.01 * level;
+  };
+  CoarseToFineOptions o = planarOptions();
+  o.heading_starts = 4;
+  o.position_starts = 3;
+  o.restarts = 2;
+  for (const int budget : {60, 1000}) {
+    SCOPED_TRACE(budget);
+    o.max_iterations = budget;
+    SyntheticCosts alone(3, f);
+    BatchedCosts batched(3, f);
+    const CoarseToFineResult a = pcl_mi::core::searchCoarseToFine(alone, o);
+    const CoarseToFineResult b = pcl_mi::core::searchCoarseToFine(batched, o);
+    EXPECT_EQ(a.best.x, b.best.x);
+    EXPECT_EQ(a.best.value, b.best.value);
+    EXPECT_EQ(a.best.converged, b.best.converged);
+    EXPECT_EQ(a.iterations, b.iterations);
+    EXPECT_EQ(a.evaluations, b.evaluations);
+    // The 7 starts' 14 first simplices of 4 vertices go out in one batch, and the whole
+    // search needs far fewer round trips than one point at a time.
+    EXPECT_GE(batched.largest, 14u * 4u);
+    EXPECT_LT(2 * b.batches, a.batches);
+    if (budget == 1000) // the deeper, farther basin (the near one never scores below 0.25)
+      EXPECT_LT(b.best.value, 0.2);
+  }
 }

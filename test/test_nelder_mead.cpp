@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 using pcl_mi::core::minimizeNelderMead;
 using pcl_mi::core::NelderMeadOptions;
@@ -88,4 +90,100 @@ TEST(NelderMead, StartingAtTheMinimumConvergesThere)
   const auto r = minimizeNelderMead(f, Eigen::VectorXd::Zero(6), paperSteps(), tightOptions());
   EXPECT_TRUE(r.converged);
   EXPECT_LT(r.x.cwiseAbs().maxCoeff(), 1e-5);
+}
+
+namespace {
+
+/** A quantised, anisotropic cost with plateaus (as MI on a voxel grid): from the origin
+ * it needs every kind of step, reflections, expansions, contractions and shrinks. */
+double
+plateauCost(const Eigen::VectorXd& x)
+{
+  Eigen::VectorXd minimum(6);
+  minimum << 4.0, -7.0, 0.3, 0.08, -0.02, 0.5;
+  const double d = (x - minimum).cwiseProduct(Eigen::VectorXd::LinSpaced(6, 1.0, 6.0)).norm();
+  return std::floor(50.0 * d) / 50.0 + 0.01 * std::sin(3.0 * x[0]);
+}
+
+void
+expectSameRun(const pcl_mi::core::NelderMeadResult& a, const pcl_mi::core::NelderMeadResult& b)
+{
+  EXPECT_EQ(a.x, b.x);
+  EXPECT_EQ(a.value, b.value);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(a.evaluations, b.evaluations);
+  EXPECT_EQ(a.converged, b.converged);
+}
+
+} // namespace
+
+TEST(NelderMead, SpeculativeRequestsChooseTheSameVertices)
+{
+  for (const int cap : {3, 40, 2000}) {
+    SCOPED_TRACE(cap);
+    const auto one = minimizeNelderMead(plateauCost, Eigen::VectorXd::Zero(6), paperSteps(),
+                                        tightOptions(cap));
+    NelderMeadOptions o = tightOptions(cap);
+    o.speculative = true;
+    std::vector<pcl_mi::core::NelderMeadRun> runs{
+        pcl_mi::core::NelderMeadRun(Eigen::VectorXd::Zero(6), paperSteps(), o)};
+    int points = 0;
+    const int rounds = pcl_mi::core::runTogether(
+        runs, [&](const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values) {
+          points += static_cast<int>(xs.size());
+          for (std::size_t i = 0; i < xs.size(); ++i)
+            values[i] = plateauCost(xs[i]);
+        });
+    const auto batched = runs.front().result();
+    expectSameRun(batched, one);
+    // One request for the first simplex, one per iteration and one per shrink: fewer
+    // than one at a time needs, with more points evaluated.
+    EXPECT_EQ(rounds, batched.requests);
+    EXPECT_LT(batched.requests, one.requests);
+    EXPECT_LE(batched.requests, 1 + 2 * batched.iterations);
+    EXPECT_GE(points, batched.evaluations);
+    if (cap == 2000) {
+      EXPECT_TRUE(batched.converged);
+      EXPECT_GT(points, batched.evaluations); // speculation evaluated unused candidates
+    }
+  }
+}
+
+TEST(NelderMead, RunsInLockstepEndAsEachAlone)
+{
+  // Runs of different starts, steps, caps and modes share every round; each still ends
+  // exactly where it ends alone, and the rounds are those of the longest run.
+  struct Case {
+    Eigen::VectorXd x0, steps;
+    int cap;
+    bool speculative;
+  };
+  std::vector<Case> cases;
+  for (int k = 0; k < 6; ++k)
+    cases.push_back({Eigen::VectorXd::Constant(6, 0.5 * k), (k % 2 ? -1.0 : 1.0) * paperSteps(),
+                     k == 3 ? 5 : 300 + 100 * k, k % 3 != 0});
+  std::vector<pcl_mi::core::NelderMeadRun> runs;
+  for (const Case& c : cases) {
+    NelderMeadOptions o = tightOptions(c.cap);
+    o.speculative = c.speculative;
+    runs.emplace_back(c.x0, c.steps, o);
+  }
+  int largest_batch = 0;
+  const int rounds = pcl_mi::core::runTogether(
+      runs, [&](const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values) {
+        largest_batch = std::max(largest_batch, static_cast<int>(xs.size()));
+        for (std::size_t i = 0; i < xs.size(); ++i)
+          values[i] = plateauCost(xs[i]);
+      });
+  int longest = 0;
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    SCOPED_TRACE(k);
+    const auto alone = minimizeNelderMead(plateauCost, cases[k].x0, cases[k].steps,
+                                          tightOptions(cases[k].cap));
+    expectSameRun(runs[k].result(), alone);
+    EXPECT_TRUE(runs[k].finished());
+    longest = std::max(longest, runs[k].result().requests);
+  }
+  EXPECT_EQ(rounds, longest);
+  EXPECT_EQ(largest_batch, 6 * 7); // the six first simplices in one round
 }

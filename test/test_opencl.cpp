@@ -1,12 +1,18 @@
 /*
  * The OpenCL backend against the CPU backend: identical joint histograms and MI at many
- * poses of real KITTI pairs, identical alignments, and the fallback when no device exists.
+ * poses of real KITTI pairs, one at a time and in batches, identical alignments, and the
+ * fallback when no device exists.
  * Runs wherever an OpenCL device is available (PoCL on the CPU in CI); skips otherwise.
  */
 #include "test_data.h"
 
 #include <pcl_mi/mutual_information_registration.h>
 #include <pcl_mi/registration_core.h>
+
+#include "backend/scoring_backend.h"
+#ifdef PCL_MI_WITH_OPENCL
+#include "backend/opencl_backend.h"
+#endif
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -101,6 +107,65 @@ INSTANTIATE_TEST_SUITE_P(Backends,
                                                           pcl_mi::Feature::PointCount),
                                           testing::Values(0, 2)));
 
+TEST(OpenClBatches, EachPoseOfABatchGetsTheCpuHistogram)
+{
+  if (!requireOpenCl())
+    GTEST_SKIP() << "no OpenCL device";
+#ifdef PCL_MI_WITH_OPENCL
+  using namespace pcl_mi::core;
+  const auto source = points(*test_data::loadScan("02", 6));
+  const auto target = points(*test_data::loadScan("02", 0));
+  std::string error;
+  auto device = pcl_mi::backend::openClDevice(-1, -1, error);
+  ASSERT_TRUE(device) << error;
+  for (const pcl_mi::Feature feature : {pcl_mi::Feature::VarianceZ, pcl_mi::Feature::PointCount}) {
+    auto grid = std::make_shared<TargetGrid>();
+    ASSERT_TRUE(buildTargetGrid(target, 2.0, feature, {16, feature == pcl_mi::Feature::PointCount
+                                                               ? 400.0
+                                                               : 1.0 / 12},
+                                *grid, error))
+        << error;
+    auto samples = std::make_shared<const SourceSamples>(makeSourceSamples(source, 0.5));
+    auto cpu = pcl_mi::backend::makeCpuBackend();
+    auto gpu = pcl_mi::backend::makeOpenClBackend(device, false, true);
+    for (auto* b : {cpu.get(), gpu.get()}) {
+      b->setTarget(grid);
+      b->setSource(samples);
+    }
+    EXPECT_FALSE(cpu->prefersBatches());
+    EXPECT_TRUE(gpu->prefersBatches());
+    std::mt19937 random(7);
+    std::uniform_real_distribution<float> shift(-8.0f, 8.0f), turn(-0.4f, 0.4f);
+    // Batches that grow (new scratch), shrink (scratch kept) and hold poses without
+    // overlap, so that no pose's scratch leaks into the next batch's.
+    for (const std::size_t size : {1u, 4u, 7u, 3u, 12u, 6u, 1u}) {
+      std::vector<Eigen::Matrix3f> rotations;
+      std::vector<Eigen::Vector3f> translations;
+      for (std::size_t k = 0; k < size; ++k) {
+        rotations.push_back(Eigen::AngleAxisf(turn(random), Eigen::Vector3f::UnitZ()) *
+                            Eigen::AngleAxisf(0.1f * turn(random), Eigen::Vector3f::UnitX())
+                                .toRotationMatrix());
+        translations.emplace_back(shift(random), shift(random), 0.1f * shift(random));
+        if (k == 2)
+          translations.back() = Eigen::Vector3f(900.0f, 0.0f, 0.0f);
+      }
+      std::vector<pcl_mi::JointHistogram> batch;
+      gpu->jointHistograms(rotations, translations, batch);
+      ASSERT_EQ(batch.size(), size);
+      for (std::size_t k = 0; k < size; ++k) {
+        SCOPED_TRACE(testing::Message() << "batch of " << size << ", pose " << k);
+        pcl_mi::JointHistogram single;
+        cpu->jointHistogram(rotations[k], translations[k], single);
+        EXPECT_EQ(batch[k].num_bins, single.num_bins);
+        EXPECT_EQ(batch[k].overlap_voxels, single.overlap_voxels);
+        EXPECT_EQ(batch[k].counts, single.counts);
+        EXPECT_EQ(single.overlap_voxels == 0, k == 2);
+      }
+    }
+  }
+#endif
+}
+
 TEST(OpenClAlignment, SamePoseAsTheCpuOnTheBundledPairs)
 {
   if (!requireOpenCl())
@@ -113,20 +178,27 @@ TEST(OpenClAlignment, SamePoseAsTheCpuOnTheBundledPairs)
       SCOPED_TRACE(testing::Message() << sequence << " " << source_frame << "->" << target_frame);
       const auto source = test_data::loadScan(sequence, source_frame);
       const auto target = test_data::loadScan(sequence, target_frame);
-      Eigen::Matrix4f result[2];
-      for (const Backend backend : {Backend::Cpu, Backend::OpenCL}) {
+      // The CPU; OpenCL one pose per round trip; OpenCL in lockstep batches.
+      Eigen::Matrix4f result[3];
+      int evaluations[3];
+      for (int run = 0; run < 3; ++run) {
         pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-        reg.setBackend(backend);
+        reg.setBackend(run == 0 ? Backend::Cpu : Backend::OpenCL);
+        reg.setBatching(run == 2 ? pcl_mi::Batching::On : pcl_mi::Batching::Off);
         reg.setInputSource(source);
         reg.setInputTarget(target);
         pcl::PointCloud<pcl::PointXYZ> aligned;
         reg.align(aligned);
         ASSERT_TRUE(reg.hasConverged()) << reg.getLastError();
-        result[backend == Backend::OpenCL] = reg.getFinalTransformation();
-        EXPECT_POSE_NEAR(result[backend == Backend::OpenCL].cast<double>(),
+        result[run] = reg.getFinalTransformation();
+        evaluations[run] = reg.getNumberOfEvaluations();
+        EXPECT_POSE_NEAR(result[run].cast<double>(),
                          test_data::referenceTransform(sequence, target_frame, source_frame));
       }
       EXPECT_LT((result[0] - result[1]).cwiseAbs().maxCoeff(), 1e-5f);
+      EXPECT_EQ(result[2], result[1]);
+      EXPECT_EQ(evaluations[2], evaluations[1]);
+      EXPECT_EQ(evaluations[1], evaluations[0]);
     }
 }
 
@@ -158,6 +230,7 @@ TEST(OpenClProfile, ReportsThePapersStages)
     GTEST_SKIP() << "no OpenCL device";
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
   reg.setBackend(Backend::OpenCL);
+  reg.setBatching(pcl_mi::Batching::Off);
   reg.setInputSource(test_data::loadScan("00", 9));
   reg.setInputTarget(test_data::loadScan("00", 0));
   pcl::PointCloud<pcl::PointXYZ> aligned;
@@ -177,13 +250,30 @@ TEST(OpenClProfile, ReportsThePapersStages)
         return s;
     return pcl_mi::StageTiming{};
   };
-  // Every search evaluation, plus the overlap check at the guess and the MI of the final
-  // (refined) pose.
+  // Every kernel runs once per round trip: here one per search evaluation, plus the
+  // overlap check at the guess and the MI of the final (refined) pose.
   const int evaluations = reg.getNumberOfEvaluations() + 2;
+  EXPECT_EQ(find("host: round trips").calls, evaluations);
   EXPECT_EQ(find("device: voxel mapping").calls, evaluations);
   EXPECT_EQ(find("device: find overlap").calls, evaluations);
   EXPECT_EQ(find("device: feature histogram").calls, 2 * evaluations);
   EXPECT_GT(find("device: voxel mapping").total_ms, 0.0);
   EXPECT_GT(find("host: memory allocation").calls, 0);
   EXPECT_GT(find("host: copy to device").calls, 0);
+
+  // In batches the same evaluations, and speculative ones besides, take a fraction of the
+  // round trips, and the pose is the same.
+  reg.setBatching(pcl_mi::Batching::On);
+  reg.align(aligned);
+  EXPECT_EQ(reg.getFinalTransformation(), unprofiled);
+  EXPECT_EQ(reg.getNumberOfEvaluations() + 2, evaluations);
+  const auto batched = reg.getBackendProfile();
+  int round_trips = 0, mapped = 0;
+  for (const auto& s : batched) {
+    round_trips += s.name == "host: round trips" ? s.calls : 0;
+    mapped += s.name == "device: voxel mapping" ? s.calls : 0;
+  }
+  EXPECT_GT(round_trips, 2);
+  EXPECT_LT(2 * round_trips, evaluations);
+  EXPECT_EQ(mapped, round_trips);
 }

@@ -329,6 +329,20 @@ public:
     return core_.parameters().backend.profile_device;
   }
 
+  /** \brief How the search hands poses to the OpenCL backend: Batching::Auto (default:
+   * in batches on a GPU, one at a time on a CPU device), On or Off. The result is the same
+   * in every mode (pcl_mi::BackendParameters::batching). */
+  void
+  setBatching(pcl_mi::Batching batching)
+  {
+    setField("setBatching", &Params::backend, &Devices::batching, batching);
+  }
+  pcl_mi::Batching
+  getBatching() const
+  {
+    return core_.parameters().backend.batching;
+  }
+
   /** \brief Per-stage time of the backend since the target was set (see
    * pcl_mi::RegistrationCore::backendProfile()). OpenCL kernel times need
    * setDeviceProfiling(true) first. */

@@ -27,6 +27,24 @@ enum class Backend {
 bool
 parseBackend(const std::string& name, Backend& backend);
 
+/** \brief How the search hands poses to the OpenCL backend. The CPU backend always scores
+ * one pose at a time, two searches at once; every mode gives the same result. */
+enum class Batching {
+  /** In batches on a GPU or accelerator, where a round trip costs more than the poses it
+   * scores; one pose at a time on an OpenCL CPU device (PoCL). */
+  Auto,
+  /** Always in batches: a level's independent searches in lockstep, each simplex step's
+   * reflection, expansion and both contractions together (speculatively), one round trip
+   * per step of all of them. */
+  On,
+  Off ///< one pose per round trip, two searches at once
+};
+
+/** \brief Parses a batching name as command lines spell it: "auto", "on" or "off".
+ * \return false (leaving \a batching unchanged) for any other name. */
+bool
+parseBatching(const std::string& name, Batching& batching);
+
 /** \brief Local refinement applied to the optimum of the MI search. */
 enum class Refinement {
   None,                ///< the MI optimum as found (the paper's method)
@@ -197,12 +215,15 @@ struct BackendParameters {
    * RegistrationCore::backendProfile(). Off by default: it slows evaluations down
    * (docs/opencl.md). Host-side stages and the CPU backend are always timed. */
   bool profile_device = false;
+  /** How the search hands poses to an OpenCL backend (docs/opencl.md, "Batches"). */
+  Batching batching = Batching::Auto;
 
   bool
   operator==(const BackendParameters& o) const
   {
     return type == o.type && opencl_platform == o.opencl_platform &&
-           opencl_device == o.opencl_device && profile_device == o.profile_device;
+           opencl_device == o.opencl_device && profile_device == o.profile_device &&
+           batching == o.batching;
   }
   bool
   operator!=(const BackendParameters& o) const

@@ -131,6 +131,7 @@ def test_parameters_by_name(pair):
     (lambda s, t: pcl_mi.align(s, t, feature="colour"), "feature"),
     (lambda s, t: pcl_mi.align(s, t, max_iterations=0), "maximum iterations"),
     (lambda s, t: pcl_mi.align(s, t, backend="gpu"), "backend"),
+    (lambda s, t: pcl_mi.align(s, t, batching="yes"), "batching"),
 ])
 def test_bad_input_raises_value_error_with_the_reason(pair, bad, reason):
     source, target, _ = pair

@@ -33,9 +33,10 @@ bool
 openClDeviceIsOffload(int platform, int device, std::string& error);
 
 /** \brief A backend on \a device; with \a profile_device every command is timed with
- * device events. Throws std::runtime_error on OpenCL errors. */
+ * device events; with \a batch it prefersBatches(). Throws std::runtime_error on OpenCL
+ * errors. */
 std::unique_ptr<ScoringBackend>
-makeOpenClBackend(std::shared_ptr<OpenClDevice> device, bool profile_device);
+makeOpenClBackend(std::shared_ptr<OpenClDevice> device, bool profile_device, bool batch);
 
 } // namespace backend
 } // namespace pcl_mi

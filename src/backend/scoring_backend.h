@@ -44,6 +44,27 @@ public:
                  const Eigen::Vector3f& translation,
                  JointHistogram& histogram) = 0;
 
+  /** \brief jointHistogram() of each of \a rotations[i], \a translations[i] into
+   * \a histograms[i] (resized to match). A backend that prefersBatches() computes them in
+   * one round trip; by default, one call each. */
+  virtual void
+  jointHistograms(const std::vector<Eigen::Matrix3f>& rotations,
+                  const std::vector<Eigen::Vector3f>& translations,
+                  std::vector<JointHistogram>& histograms)
+  {
+    histograms.resize(rotations.size());
+    for (std::size_t i = 0; i < rotations.size(); ++i)
+      jointHistogram(rotations[i], translations[i], histograms[i]);
+  }
+
+  /** \brief True when a batch of poses costs about as much as one (a device round trip
+   * dominates): the search then evaluates speculatively in batches. */
+  virtual bool
+  prefersBatches() const
+  {
+    return false;
+  }
+
   /** \brief Adds this backend's stage timings since the last reset to \a stages (stages of
    * the same name are summed). */
   virtual void

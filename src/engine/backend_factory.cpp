@@ -17,6 +17,7 @@ BackendFactory::choose(const BackendParameters& backend,
 {
   device_.reset();
   profile_device_ = backend.profile_device;
+  batch_ = false;
   name_ = "cpu";
   warning_.clear();
   if (backend.type == Backend::Cpu)
@@ -38,6 +39,13 @@ BackendFactory::choose(const BackendParameters& backend,
     return true;
   device_ = backend::openClDevice(backend.opencl_platform, backend.opencl_device, why);
   if (device_) {
+    // Batches pay where a round trip outweighs the poses it scores: on a GPU, not on a
+    // CPU device, where speculative poses are extra work on the same cores.
+    std::string unused;
+    batch_ = backend.batching == Batching::On ||
+             (backend.batching == Batching::Auto &&
+              backend::openClDeviceIsOffload(backend.opencl_platform, backend.opencl_device,
+                                             unused));
     name_ = "opencl (" + backend::openClDeviceName(*device_) + ")";
     return true;
   }
@@ -58,7 +66,7 @@ BackendFactory::make() const
 {
 #ifdef PCL_MI_WITH_OPENCL
   if (device_)
-    return backend::makeOpenClBackend(device_, profile_device_);
+    return backend::makeOpenClBackend(device_, profile_device_, batch_);
 #endif
   return backend::makeCpuBackend();
 }

@@ -49,6 +49,7 @@ public:
 private:
   std::shared_ptr<backend::OpenClDevice> device_; // null: the CPU
   bool profile_device_ = false;
+  bool batch_ = false;
   std::string name_ = "cpu";
   std::string warning_;
 };

@@ -63,6 +63,20 @@ parseBackend(const std::string& name, Backend& backend)
 }
 
 bool
+parseBatching(const std::string& name, Batching& batching)
+{
+  if (name == "auto")
+    batching = Batching::Auto;
+  else if (name == "on")
+    batching = Batching::On;
+  else if (name == "off")
+    batching = Batching::Off;
+  else
+    return false;
+  return true;
+}
+
+bool
 GridParameters::operator==(const GridParameters& o) const
 {
   return resolution == o.resolution && feature == o.feature &&

@@ -282,6 +282,44 @@ PreparedProblem::mutualInformation(const Eigen::Matrix4d& pose,
   return histogram.overlap_voxels == 0 ? 0.0 : core::mutualInformation(histogram);
 }
 
+void
+PreparedProblem::mutualInformation(const std::vector<Eigen::Matrix4d>& poses,
+                                   std::vector<JointHistogram>& histograms,
+                                   std::vector<double>& values,
+                                   int level,
+                                   int slot)
+{
+  // Poses that do not map to finite local ones score 0 without reaching the backend.
+  std::vector<Eigen::Matrix3f> rotations;
+  std::vector<Eigen::Vector3f> translations;
+  std::vector<std::size_t> scored;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const LocalPose local = toLocal(poses[i]);
+    if (!local.rotation.allFinite() || !local.translation.allFinite())
+      continue;
+    rotations.push_back(local.rotation.cast<float>());
+    translations.push_back(local.translation.cast<float>());
+    scored.push_back(i);
+  }
+  std::vector<JointHistogram> computed;
+  backend(level, slot).jointHistograms(rotations, translations, computed);
+  histograms.resize(poses.size());
+  values.assign(poses.size(), 0.0);
+  for (JointHistogram& h : histograms)
+    h.overlap_voxels = 0;
+  for (std::size_t k = 0; k < scored.size(); ++k) {
+    JointHistogram& h = histograms[scored[k]];
+    h = std::move(computed[k]);
+    values[scored[k]] = h.overlap_voxels == 0 ? 0.0 : core::mutualInformation(h);
+  }
+}
+
+bool
+PreparedProblem::prefersBatches()
+{
+  return !levels_.empty() && backend(levels() - 1, 0).prefersBatches();
+}
+
 std::vector<std::string>
 PreparedProblem::warnings() const
 {

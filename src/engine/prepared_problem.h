@@ -85,6 +85,20 @@ public:
                     int level = 0,
                     int slot = 0);
 
+  /** \brief mutualInformation() of each of \a poses into \a values, with \a histograms
+   * resized to match: one batch for the level's backend. */
+  void
+  mutualInformation(const std::vector<Eigen::Matrix4d>& poses,
+                    std::vector<JointHistogram>& histograms,
+                    std::vector<double>& values,
+                    int level,
+                    int slot);
+
+  /** \brief True when the backends of the levels score a batch of poses in about the time
+   * of one (ScoringBackend::prefersBatches()). */
+  bool
+  prefersBatches();
+
   /** \brief The pose between the local frames, and back. */
   LocalPose
   toLocal(const Eigen::Matrix4d& pose) const;

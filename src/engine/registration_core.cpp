@@ -39,7 +39,7 @@ constexpr double kSensorOriginRadii = 4.0;
 class MutualInformationCosts final : public core::LevelCosts {
 public:
   MutualInformationCosts(core::PreparedProblem& problem, const core::SearchSpace& space)
-  : problem_(problem), space_(space)
+  : problem_(problem), space_(space), prefers_batches_(problem.prefersBatches())
   {}
 
   int
@@ -60,10 +60,36 @@ public:
     return -problem_.mutualInformation(space_.pose(x), histograms_[slot], level, slot);
   }
 
+  void
+  costs(int level, int slot, const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values)
+      override
+  {
+    if (!prefers_batches_) {
+      core::LevelCosts::costs(level, slot, xs, values);
+      return;
+    }
+    std::vector<Eigen::Matrix4d> poses;
+    poses.reserve(xs.size());
+    for (const Eigen::VectorXd& x : xs)
+      poses.push_back(space_.pose(x));
+    problem_.mutualInformation(poses, batch_histograms_[slot], values, level, slot);
+    for (double& v : values)
+      v = -v;
+  }
+
+  bool
+  prefersBatches() const override
+  {
+    return prefers_batches_;
+  }
+
 private:
   core::PreparedProblem& problem_;
   const core::SearchSpace& space_;
-  JointHistogram histograms_[2]; // one per slot: the two may run concurrently
+  bool prefers_batches_;
+  // One per slot: the two may run concurrently.
+  JointHistogram histograms_[2];
+  std::vector<JointHistogram> batch_histograms_[2];
 };
 
 } // namespace

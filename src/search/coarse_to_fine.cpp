@@ -7,7 +7,6 @@
 #include "util/stage_clock.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <sstream>
 
@@ -34,7 +33,7 @@ constexpr double kCandidateSeparationRad = 0.2;
 
 /** One search's start: point, simplex steps and iteration cap. */
 struct Start {
-  const Eigen::VectorXd& x0;
+  Eigen::VectorXd x0;
   Eigen::VectorXd steps;
   int cap;
 };
@@ -49,28 +48,68 @@ public:
 
   /** One Nelder-Mead search on \a level by evaluator \a slot, capped at \a cap. */
   NelderMeadResult
-  search(int level, int slot, const Start& start) const
+  search(int level, int slot, const Start& start)
   {
-    auto cost = [&](const Eigen::VectorXd& x) { return costs_.cost(level, slot, x); };
+    return searchAll(level, {start}).front();
+  }
+
+  /** Independent searches on one level, each as search() would run it alone. Where the
+   * costs prefer batches (a GPU), they run in lockstep with one batch of every search's
+   * points per round; otherwise two at a time, one per evaluator, concurrent when threads
+   * allow. The results are the same either way. */
+  std::vector<NelderMeadResult>
+  searchAll(int level, const std::vector<Start>& starts)
+  {
+    std::vector<NelderMeadRun> runs;
+    for (const Start& s : starts)
+      runs.emplace_back(s.x0, s.steps, options(level, s.cap));
+    if (costs_.prefersBatches()) {
+      result_.batches += runTogether(runs, [&](const std::vector<Eigen::VectorXd>& xs,
+                                               std::vector<double>& values) {
+        costs_.costs(level, 0, xs, values);
+      });
+    }
+    else {
+      int rounds[2] = {0, 0};
+      for (std::size_t i = 0; i < runs.size(); i += 2) {
+        const int count = i + 1 < runs.size() ? 2 : 1;
+        parallelFor(count, o_.num_threads, [&](int k) {
+          rounds[k] += drive(runs[i + static_cast<std::size_t>(k)], level, k);
+        });
+      }
+      result_.batches += rounds[0] + rounds[1];
+    }
+    std::vector<NelderMeadResult> results;
+    for (const NelderMeadRun& run : runs)
+      results.push_back(run.result());
+    return results;
+  }
+
+  /** Runs \a run to its end by evaluator \a slot; returns the rounds it took. */
+  int
+  drive(NelderMeadRun& run, int level, int slot)
+  {
+    int rounds = 0;
+    std::vector<double> values;
+    for (; !run.finished(); ++rounds) {
+      values.assign(run.request().size(), 0.0);
+      costs_.costs(level, slot, run.request(), values);
+      run.reply(values);
+    }
+    return rounds;
+  }
+
+  NelderMeadOptions
+  options(int level, int cap) const
+  {
     NelderMeadOptions options;
-    options.max_iterations = std::max(start.cap, 0);
+    options.speculative = costs_.prefersBatches();
+    options.max_iterations = std::max(cap, 0);
     // A coarse level only has to land in the basin: the next level restarts with a larger
     // simplex than this tolerance anyway.
     options.tolerance =
         o_.tolerance * (level > 0 ? kCoarseToleranceFactor * std::ldexp(1.0, level) : 1.0);
-    return minimizeNelderMead(cost, start.x0, start.steps, options);
-  }
-
-  /** Two independent searches on one level, one per evaluator, concurrent when threads
-   * allow: the same results either way. */
-  std::array<NelderMeadResult, 2>
-  searchBoth(int level, const Start& a, const Start& b) const
-  {
-    std::array<NelderMeadResult, 2> results;
-    parallelFor(2, o_.num_threads, [&](int k) {
-      results[static_cast<std::size_t>(k)] = search(level, k, k == 0 ? a : b);
-    });
-    return results;
+    return options;
   }
 
   /** Books a finished search against the budget and the level's best. */
@@ -102,7 +141,7 @@ public:
     const int start_budget = budget_ / starts;
     const int mirrored_cap = o_.symmetric_start ? start_budget / 2 : 0;
     const int forward_cap = start_budget - mirrored_cap;
-    std::vector<NelderMeadResult> start_best;
+    std::vector<Start> runs;
     for (int k = 0; k < starts; ++k) {
       Eigen::VectorXd start = origin;
       if (k > 0 && k < headings) // k * 360 / headings degrees, in (-180, 180]
@@ -114,17 +153,21 @@ public:
         if (o_.y_index >= 0)
           start[o_.y_index] = 0.5 * o_.steps[o_.y_index] * std::sin(angle);
       }
-      if (o_.symmetric_start) {
-        const auto both = searchBoth(level, {start, o_.steps, forward_cap},
-                                     {start, -o_.steps, mirrored_cap});
-        account(both[0]);
-        account(both[1]);
-        start_best.push_back(both[1].value < both[0].value ? both[1] : both[0]);
+      runs.push_back({start, o_.steps, forward_cap});
+      if (o_.symmetric_start)
+        runs.push_back({start, -o_.steps, mirrored_cap});
+    }
+    const std::vector<NelderMeadResult> results = searchAll(level, runs);
+    const std::size_t per_start = o_.symmetric_start ? 2 : 1;
+    std::vector<NelderMeadResult> start_best;
+    for (std::size_t k = 0; k < results.size(); k += per_start) {
+      account(results[k]);
+      if (per_start == 1) {
+        start_best.push_back(results[k]);
+        continue;
       }
-      else {
-        start_best.push_back(search(level, 0, {start, o_.steps, forward_cap}));
-        account(start_best.back());
-      }
+      account(results[k + 1]);
+      start_best.push_back(results[k + 1].value < results[k].value ? results[k + 1] : results[k]);
     }
     return start_best;
   }
@@ -176,8 +219,7 @@ public:
   }
 
   /** Refines \a candidates on \a level with simplices of \a scale times the steps: the
-   * first (the coarser level's optimum) gets the budget, the others a capped search each,
-   * two at a time. The level's best is its own: costs of two levels do not compare. */
+   * first (the coarser level's optimum) gets the budget, the others a capped search each. The level's best is its own: costs of two levels do not compare. */
   void
   searchFiner(int level, const std::vector<Eigen::VectorXd>& candidates, double scale)
   {
@@ -189,19 +231,10 @@ public:
     }
     const int cap = std::max(budget_ / 2, 0);
     const int capped = std::min(cap, kGuessCandidateIterations);
-    std::vector<NelderMeadResult> from(candidates.size());
-    for (std::size_t i = 0; i < candidates.size(); i += 2) {
-      const int first_cap = i == 0 ? cap : capped;
-      if (i + 1 < candidates.size()) {
-        const auto both = searchBoth(level, {candidates[i], steps, first_cap},
-                                     {candidates[i + 1], steps, capped});
-        from[i] = both[0];
-        from[i + 1] = both[1];
-      }
-      else {
-        from[i] = search(level, 0, {candidates[i], steps, first_cap});
-      }
-    }
+    std::vector<Start> runs;
+    for (std::size_t i = 0; i < candidates.size(); ++i)
+      runs.push_back({candidates[i], steps, i == 0 ? cap : capped});
+    const std::vector<NelderMeadResult> from = searchAll(level, runs);
     std::size_t winner = 0;
     for (std::size_t i = 0; i < from.size(); ++i) {
       account(from[i]);

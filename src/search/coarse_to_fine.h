@@ -33,6 +33,24 @@ public:
    * (0 or 1). The two slots may be called concurrently; one slot never is. */
   virtual double
   cost(int level, int slot, const Eigen::VectorXd& x) = 0;
+
+  /** \brief Costs of several search vectors at once, by evaluator \a slot: values[i] =
+   * cost(level, slot, xs[i]). By default one cost() call each. */
+  virtual void
+  costs(int level, int slot, const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values)
+  {
+    for (std::size_t i = 0; i < xs.size(); ++i)
+      values[i] = cost(level, slot, xs[i]);
+  }
+
+  /** \brief True when a batch costs about as much as one evaluation (a GPU round trip):
+   * the search then runs a level's independent searches in lockstep, by evaluator 0, and
+   * asks for each iteration's candidates together (speculatively), one batch per round. */
+  virtual bool
+  prefersBatches() const
+  {
+    return false;
+  }
 };
 
 /** \brief What the search does, in the units of its search vector. */
@@ -58,6 +76,7 @@ struct CoarseToFineResult {
   NelderMeadResult best;  ///< best vertex of the finest searched level
   int iterations = 0;     ///< summed over every search
   int evaluations = 0;    ///< summed over every search
+  int batches = 0;        ///< calls of LevelCosts::costs(), summed over every search
   /** One stage per level ("search 4 m", ...) and "restarts", with its evaluations. */
   std::vector<StageTiming> stages;
 };
