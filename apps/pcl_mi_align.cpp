@@ -300,6 +300,13 @@ run(int argc, char** argv)
                     ? " (narrow field of view)"
                     : "");
   }
+  if (reg.getLastResult().runners_up_checked > 0) {
+    print_info("Runners-up of the search checked: ");
+    print_value("%d, %s\n", reg.getLastResult().runners_up_checked,
+                reg.getLastResult().runner_up_kept
+                    ? "one kept (it agrees better with the target on the finest grid)"
+                    : "none kept");
+  }
   if (reg.getNumberOfRefinementIterations() > 0) {
     print_info("Refinement iterations: ");
     print_value("%d\n", reg.getNumberOfRefinementIterations());

@@ -218,3 +218,31 @@ TEST(CoarseToFine, BatchedLockstepSearchGivesTheSameResult)
       EXPECT_LT(b.best.value, 0.2);
   }
 }
+
+TEST(CoarseToFine, AlternativesAreTheOtherCandidatesOptimaBestFirst)
+{
+  // Two basins and several starts: the finest searched level refines more than one
+  // candidate, and every optimum but the winner's comes back as an alternative, ranked.
+  const Eigen::Vector3d near(1.5, -0.5, 0.2), far(-6.0, 5.0, 2.5);
+  SyntheticCosts costs(3, [&](int level, const Eigen::VectorXd& x) {
+    return std::min(bowl(x, near) + 0.3, 0.5 * bowl(x, far)) + 0.01 * level;
+  });
+  CoarseToFineOptions o = planarOptions();
+  o.heading_starts = 4;
+  o.position_starts = 3;
+  o.first_level = 1;
+  const CoarseToFineResult r = pcl_mi::core::searchCoarseToFine(costs, o);
+  ASSERT_GE(r.alternatives.size(), 2u);
+  for (std::size_t i = 0; i < r.alternatives.size(); ++i) {
+    EXPECT_GE(r.alternatives[i].value, r.best.value);
+    EXPECT_NE(r.alternatives[i].x, r.best.x);
+    if (i > 0)
+      EXPECT_GE(r.alternatives[i].value, r.alternatives[i - 1].value);
+  }
+  // One start and a guess the coarse optimum did not leave: nothing else to offer.
+  CoarseToFineOptions single = planarOptions();
+  single.first_level = 1;
+  const Eigen::Vector3d at_guess = Eigen::Vector3d::Zero();
+  SyntheticCosts centred(3, [&](int, const Eigen::VectorXd& x) { return bowl(x, at_guess); });
+  EXPECT_TRUE(pcl_mi::core::searchCoarseToFine(centred, single).alternatives.empty());
+}

@@ -92,6 +92,40 @@ private:
   std::vector<JointHistogram> batch_histograms_[2];
 };
 
+/** Refines the search vector \a x's pose and gives it the verdict, into \a result (whose
+ * search_converged is set). */
+void
+finishCandidate(core::PreparedProblem& problem,
+                const core::SearchSpace& space,
+                const Eigen::VectorXd& x,
+                JointHistogram& scratch,
+                AlignmentResult& result)
+{
+  const Parameters& p = problem.parameters();
+  result.transformation = space.pose(x);
+  result.refinement_iterations = 0;
+  if (p.refinement.method == Refinement::PointToDistribution) {
+    core::StageClock refinement_clock;
+    const core::RefinedOptimum refined = core::refineOptimum(problem, space, result.transformation);
+    refinement_clock.end(result.stages, "refinement", refined.iterations);
+    if (refined.accepted) {
+      result.refinement_iterations = refined.iterations;
+      result.transformation = refined.transformation;
+    }
+  }
+
+  // The verdict: the search's convergence says nothing about whether the optimum is the
+  // true pose; the target's surfaces do.
+  core::StageClock verification_clock;
+  result.mutual_information = problem.mutualInformation(result.transformation, scratch);
+  const core::LocalPose at = problem.toLocal(result.transformation);
+  result.verification = core::verifyPose(
+      problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
+      problem.levelResolution(0), scratch, problem.target().centroid, p.num_threads);
+  result.converged = result.search_converged && result.verification.reason.empty();
+  verification_clock.end(result.stages, "verification", 1);
+}
+
 } // namespace
 
 struct RegistrationCore::Impl {
@@ -199,31 +233,35 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.turned_about_sensor = about_sensor;
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
-  result.transformation = space.pose(found.best.x);
-
-  if (p.refinement.method == Refinement::PointToDistribution) {
-    core::StageClock refinement_clock;
-    const core::RefinedOptimum refined = core::refineOptimum(problem, space, result.transformation);
-    refinement_clock.end(result.stages, "refinement", refined.iterations);
-    if (refined.accepted) {
-      result.refinement_iterations = refined.iterations;
-      result.transformation = refined.transformation;
-    }
-  }
-
-  // The verdict: the search's convergence says nothing about whether the optimum is the
-  // true pose; the target's surfaces do.
-  core::StageClock verification_clock;
-  result.mutual_information = problem.mutualInformation(result.transformation, impl_->scratch);
-  const core::LocalPose at = problem.toLocal(result.transformation);
-  result.verification = core::verifyPose(
-      problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
-      problem.levelResolution(0), impl_->scratch, problem.target().centroid, p.num_threads);
   result.search_converged = found.best.converged;
-  result.converged = result.search_converged && result.verification.reason.empty();
-  verification_clock.end(result.stages, "verification", 1);
+  finishCandidate(problem, space, found.best.x, impl_->scratch, result);
+
+  // A second opinion: where the verification does not trust the search's best optimum, the
+  // runners-up are refined and verified too, and the one that agrees best with the target
+  // on the finest grid is kept. On sparse, narrow views the coarser grids the search ranks
+  // on often put a wrong optimum first where the finest grid does not (docs/method.md).
+  if (!result.verification.reason.empty() && !found.alternatives.empty()) {
+    core::StageClock clock;
+    for (const core::NelderMeadResult& alternative : found.alternatives) {
+      AlignmentResult other; // its stages are the runners-up stage's
+      other.search_converged = alternative.converged;
+      finishCandidate(problem, space, alternative.x, impl_->scratch, other);
+      ++result.runners_up_checked;
+      if (other.verification.normalized_mi > result.verification.normalized_mi) {
+        result.transformation = other.transformation;
+        result.converged = other.converged;
+        result.search_converged = other.search_converged;
+        result.refinement_iterations = other.refinement_iterations;
+        result.mutual_information = other.mutual_information;
+        result.verification = std::move(other.verification);
+        result.runner_up_kept = true;
+      }
+    }
+    clock.end(result.stages, "runners-up", result.runners_up_checked);
+  }
   return result;
 }
+
 
 double
 RegistrationCore::evaluate(const Eigen::Matrix4d& pose, std::string* error)
@@ -298,6 +336,11 @@ notConvergedCause(const AlignmentResult& result, int max_iterations, const std::
   if (result.search_converged)
     return result.verification.reason;
   const std::string cap = "(" + cap_name + ")";
+  if (result.runner_up_kept)
+    return "the result is a runner-up of the search, kept because the finest grid prefers it "
+           "to an untrusted best, and its search was capped at a candidate's share of the "
+           "iteration cap " +
+           cap + " before the simplex met its tolerances";
   return (result.iterations >= max_iterations
               ? "the iteration cap " + cap + " ended the search"
               : "the best search stopped at its share of the iteration cap " + cap) +

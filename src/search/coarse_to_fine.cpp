@@ -26,8 +26,10 @@ constexpr double kCoarseToleranceFactor = 30.0;
 constexpr int kGuessCandidateIterations = 25;
 
 /** Most optima of further starts that the level after the coarsest refines besides the
- * best one: the coarse grid ranks them, the finer one decides. */
-constexpr int kMaxStartCandidates = 3;
+ * best one: the coarse grid ranks them, the finer one decides, and where the verification
+ * does not trust its choice, the finest grid decides among all of them
+ * (CoarseToFineResult::alternatives). */
+constexpr int kMaxStartCandidates = 8;
 /** Rotation (rad) below which two coarse optima half a coarse voxel apart are one basin. */
 constexpr double kCandidateSeparationRad = 0.2;
 
@@ -46,9 +48,9 @@ public:
   : costs_(costs), o_(options), budget_(options.max_iterations)
   {}
 
-  /** One Nelder-Mead search on \a level by evaluator \a slot, capped at \a cap. */
+  /** One Nelder-Mead search on \a level, capped at \a cap. */
   NelderMeadResult
-  search(int level, int slot, const Start& start)
+  search(int level, const Start& start)
   {
     return searchAll(level, {start}).front();
   }
@@ -226,7 +228,7 @@ public:
     have_best_ = false;
     const Eigen::VectorXd steps = scale * o_.steps;
     if (candidates.size() == 1) {
-      account(search(level, 0, {candidates[0], steps, budget_}));
+      account(search(level, {candidates[0], steps, budget_}));
       return;
     }
     const int cap = std::max(budget_ / 2, 0);
@@ -241,14 +243,31 @@ public:
       if (from[i].value < from[winner].value)
         winner = i;
     }
+    if (level == o_.first_level) {
+      for (std::size_t i = 0; i < from.size(); ++i)
+        if (i != winner)
+          result_.alternatives.push_back(from[i]);
+      std::stable_sort(result_.alternatives.begin(), result_.alternatives.end(),
+                       [](const NelderMeadResult& a, const NelderMeadResult& b) {
+                         return a.value < b.value;
+                       });
+    }
     // A capped candidate that wins before its search converged is finished from where it
     // got; its result stands even where it only ties, since it carries the convergence.
     if (winner > 0 && !from[winner].converged && budget_ > 0) {
-      const NelderMeadResult finished = search(level, 0, {from[winner].x, 0.5 * steps, budget_});
+      const NelderMeadResult finished = finish(level, from[winner].x, steps);
       account(finished);
       if (finished.value <= result_.best.value)
         result_.best = finished;
     }
+  }
+
+  /** The search from a capped candidate's optimum \a x that finishes it, on the remaining
+   * budget. */
+  NelderMeadResult
+  finish(int level, const Eigen::VectorXd& x, const Eigen::VectorXd& steps)
+  {
+    return search(level, {x, 0.5 * steps, budget_});
   }
 
   /** Restarts around the best vertex with simplices of alternating orientation. */
@@ -257,7 +276,7 @@ public:
   {
     for (int k = 0; k < o_.restarts && budget_ > 0; ++k) {
       const NelderMeadResult r =
-          search(level, 0, {result_.best.x, (k % 2 ? scale : -scale) * o_.steps, budget_});
+          search(level, {result_.best.x, (k % 2 ? scale : -scale) * o_.steps, budget_});
       account(r);
       // A restart that starts inside the tolerance takes no iteration; it still costs one,
       // so that the budget ends the loop.

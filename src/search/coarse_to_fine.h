@@ -74,6 +74,9 @@ struct CoarseToFineOptions {
 /** \brief Outcome of the search. */
 struct CoarseToFineResult {
   NelderMeadResult best;  ///< best vertex of the finest searched level
+  /** The other candidates' optima on the finest searched level, best first: the runners-up
+   * a caller may turn to when it does not trust the best. */
+  std::vector<NelderMeadResult> alternatives;
   int iterations = 0;     ///< summed over every search
   int evaluations = 0;    ///< summed over every search
   int batches = 0;        ///< calls of LevelCosts::costs(), summed over every search

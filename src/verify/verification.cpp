@@ -31,12 +31,12 @@ constexpr std::size_t kProbeSamples = 4096;
 /** The logistic model: confidence = 1 / (1 + exp(-(intercept + sum of weight * term))),
  * fitted by scripts/fit_confidence.py on the evidence of every result of the real sets in
  * docs/benchmarks.md ("The verdict"), each set weighing the same. */
-constexpr double kIntercept = -11.43;
-constexpr double kWeightNormalizedMi = 21.22;
-constexpr double kWeightWeakestContrast = 8.30;
-constexpr double kWeightInlierLogit = 0.49;
-constexpr double kWeightLogInliers = 0.72;
-constexpr double kWeightPeakContrast = 1.40;
+constexpr double kIntercept = -10.58;
+constexpr double kWeightNormalizedMi = 19.70;
+constexpr double kWeightWeakestContrast = 7.40;
+constexpr double kWeightInlierLogit = 0.46;
+constexpr double kWeightLogInliers = 0.65;
+constexpr double kWeightPeakContrast = 1.42;
 /** Inlier fractions are clamped to [kFractionClamp, 1 - kFractionClamp] for the logit. */
 constexpr double kFractionClamp = 1e-3;
 
