@@ -591,24 +591,42 @@ TEST(Registration, RefinementSharpensTheMutualInformationOptimum)
   EXPECT_LT(error[1], error[0]);
 }
 
-// A Livox (70 deg field of view) carried on a walk, 3.4 m and 38 deg between the scans:
-// the coarser grids rank a wrong optimum first, which the verification does not trust, and
-// of the search's runners-up the finest grid picks the right one.
-TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
+namespace {
+
+/** The pair in data/foreign_lidar/SET/list.txt's first row: source, target and the reference
+ * source-to-target transform. */
+void
+loadBundledPair(const std::string& set,
+                Cloud::Ptr& source,
+                Cloud::Ptr& target,
+                Eigen::Matrix4d& reference)
 {
-  const std::string dir = std::string(PCL_MI_DATA_DIR) + "/foreign_lidar/livox_avia_hku1/";
+  const std::string dir = std::string(PCL_MI_DATA_DIR) + "/foreign_lidar/" + set + "/";
   std::ifstream list(dir + "list.txt");
   std::string source_name, target_name;
   ASSERT_TRUE(list >> source_name >> target_name) << dir;
-  Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
+  reference.setIdentity();
   for (int i = 0; i < 12; ++i)
     ASSERT_TRUE(list >> reference(i / 4, i % 4));
   pcl::PointCloud<pcl::PointXYZI> source_xyzi, target_xyzi;
   ASSERT_EQ(pcl_mi::io::loadKittiBin(dir + source_name, source_xyzi), "");
   ASSERT_EQ(pcl_mi::io::loadKittiBin(dir + target_name, target_xyzi), "");
-  auto source = pcl::make_shared<Cloud>(), target = pcl::make_shared<Cloud>();
+  source = pcl::make_shared<Cloud>();
+  target = pcl::make_shared<Cloud>();
   pcl::copyPointCloud(source_xyzi, *source);
   pcl::copyPointCloud(target_xyzi, *target);
+}
+
+} // namespace
+
+// A Livox (70 deg field of view) carried on a walk, 3.4 m and 38 deg between the scans:
+// the coarser grids rank a wrong optimum first, which the verification does not trust, and
+// of the search's runners-up the finest grid picks the right one.
+TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
+{
+  Cloud::Ptr source, target;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
   reg.setInputSource(source);
   reg.setInputTarget(target);
@@ -640,19 +658,9 @@ TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
 TEST(Registration, OtherSensorsAlignWithTheDefaults)
 {
   for (const char* set : {"seosan01_ouster128", "mulran_riverside02_os1"}) {
-    const std::string dir = std::string(PCL_MI_DATA_DIR) + "/foreign_lidar/" + set + "/";
-    std::ifstream list(dir + "list.txt");
-    std::string source_name, target_name;
-    ASSERT_TRUE(list >> source_name >> target_name) << dir;
-    Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
-    for (int i = 0; i < 12; ++i)
-      ASSERT_TRUE(list >> reference(i / 4, i % 4));
-    pcl::PointCloud<pcl::PointXYZI> source_xyzi, target_xyzi;
-    ASSERT_EQ(pcl_mi::io::loadKittiBin(dir + source_name, source_xyzi), "");
-    ASSERT_EQ(pcl_mi::io::loadKittiBin(dir + target_name, target_xyzi), "");
-    auto source = pcl::make_shared<Cloud>(), target = pcl::make_shared<Cloud>();
-    pcl::copyPointCloud(source_xyzi, *source);
-    pcl::copyPointCloud(target_xyzi, *target);
+    Cloud::Ptr source, target;
+    Eigen::Matrix4d reference;
+    ASSERT_NO_FATAL_FAILURE(loadBundledPair(set, source, target, reference));
     for (const bool forward : {true, false}) {
       SCOPED_TRACE(testing::Message() << set << (forward ? " forward" : " backward"));
       pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
