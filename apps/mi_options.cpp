@@ -59,6 +59,10 @@ miOptionTable(MiOptionSet set)
        format("roll and pitch steps used instead, when larger, for a narrow field\n"
               "of view, turning the source about its sensor (default %g; 0 = off)",
               d.search.narrow_view_tilt_step * 180.0 / M_PI)},
+      {"-second_search", V::Number, "-second_search N",
+       format("headings of the wider second search a 360-degree pair gets when its\n"
+              "result is not trusted (default %g; 0 = none)",
+              d.search.second_search_headings)},
       {"-levels", V::Number, "-levels N",
        format("coarse-to-fine pyramid levels (default %g; 1 = single grid)",
               d.grid.pyramid_levels)},
@@ -166,6 +170,7 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
   readInt(argc, argv, "-narrow_view_starts", p.search.narrow_view_position_starts);
   if (const char* v = optionValue(argc, argv, "-narrow_view_tilt"))
     p.search.narrow_view_tilt_step = std::atof(v) * M_PI / 180.0;
+  readInt(argc, argv, "-second_search", p.search.second_search_headings);
   readInt(argc, argv, "-levels", p.grid.pyramid_levels);
   readInt(argc, argv, "-subdivision", p.sampling.source_subdivision);
   readInt(argc, argv, "-restarts", p.search.restarts);

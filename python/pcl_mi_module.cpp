@@ -122,6 +122,8 @@ toSettings(const py::kwargs& kwargs)
        [&](const py::handle& v) { p.search.narrow_view_position_starts = v.cast<int>(); }},
       {"narrow_view_tilt_step",
        [&](const py::handle& v) { p.search.narrow_view_tilt_step = v.cast<double>(); }},
+      {"second_search_headings",
+       [&](const py::handle& v) { p.search.second_search_headings = v.cast<int>(); }},
       {"restarts", [&](const py::handle& v) { p.search.restarts = v.cast<int>(); }},
       {"restart_scale", [&](const py::handle& v) { p.search.restart_scale = v.cast<double>(); }},
       {"translation_tolerance",

@@ -234,6 +234,57 @@ TEST(Registration, HeadingStartsFindAGuessFacingTheWrongWay)
   }
 }
 
+TEST(Registration, AnUntrustedResultGetsAWiderSecondSearch)
+{
+  // The same guesses facing the wrong way, with the defaults' single heading: the first
+  // search ends in a wrong optimum the verification does not trust, and the second search's
+  // four headings find the pose. Without it the result stays wrong and says so.
+  auto source = test_data::loadScan("02", 6);
+  auto target = test_data::loadScan("02", 0);
+  const Eigen::Matrix4d reference = test_data::referenceTransform("02", 0, 6);
+  for (const auto& [x, y, yaw] : {std::make_tuple(3.0, -2.0, 135.0),
+                                  std::make_tuple(-2.0, -3.0, -150.0)}) {
+    SCOPED_TRACE(testing::Message() << "offset " << x << ", " << y << ", turn " << yaw);
+    const Eigen::Matrix4d guess = test_data::planarMotion(x, y, 0.0) * reference *
+                                  test_data::planarMotion(0.0, 0.0, yaw);
+    for (const int headings : {4, 0}) {
+      SCOPED_TRACE(testing::Message() << headings << " second-search headings");
+      pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+      reg.setSecondSearchHeadings(headings);
+      EXPECT_EQ(reg.getSecondSearchHeadings(), headings);
+      reg.setInputSource(source);
+      reg.setInputTarget(target);
+      Cloud aligned;
+      reg.align(aligned, guess.cast<float>());
+      const pcl_mi::AlignmentResult& r = reg.getLastResult();
+      EXPECT_EQ(r.second_search, headings > 0);
+      if (headings > 0) {
+        EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+        EXPECT_TRUE(r.runner_up_kept);
+        EXPECT_LE(r.iterations, reg.getMaximumIterations());
+        EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+      }
+      else {
+        EXPECT_FALSE(reg.hasConverged());
+      }
+    }
+  }
+  // A pair the verification trusts never runs it.
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud aligned;
+  reg.align(aligned);
+  EXPECT_TRUE(reg.hasConverged());
+  EXPECT_FALSE(reg.getLastResult().second_search);
+  EXPECT_FALSE(reg.setParameters([] {
+    pcl_mi::Parameters p;
+    p.search.second_search_headings = -1;
+    return p;
+  }()));
+  EXPECT_EQ(pcl_mi::Parameters::paper().search.second_search_headings, 0);
+}
+
 TEST(Registration, PositionStartsAlignANarrowFieldOfView)
 {
   // The bundled pair as a forward-looking sensor with a 70 deg field of view would see it.

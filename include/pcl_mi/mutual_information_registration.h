@@ -274,6 +274,22 @@ public:
     return core_.parameters().search.narrow_view_tilt_step;
   }
 
+  /** \brief Headings of the second, wider search that a 360-degree pair whose result the
+   * verification does not trust gets (default 4; 0 = none;
+   * pcl_mi::SearchParameters::second_search_headings). getLastResult().second_search says
+   * whether it ran. */
+  void
+  setSecondSearchHeadings(int headings)
+  {
+    setField("setSecondSearchHeadings", &Params::search, &Search::second_search_headings,
+             headings);
+  }
+  int
+  getSecondSearchHeadings() const
+  {
+    return core_.parameters().search.second_search_headings;
+  }
+
   /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of
    * the best one in each translation parameter; 0 (default) = 0.005 * resolution. */
   void

@@ -149,6 +149,15 @@ struct SearchParameters {
    * turning its cloud about its centroid, several metres ahead, would move the sensor
    * sideways (docs/method.md, "Defaults derived from the data"). */
   double narrow_view_tilt_step = 0.35;
+  /** For clouds without a narrow field of view, when the verification does not trust the
+   * result: a second, wider search from this many headings spread over 360 degrees, with
+   * roll and pitch steps of at least 0.35 rad (0 = none). Of its optima and the first
+   * search's, the one that agrees best with the target on the finest grid is kept
+   * (AlignmentResult::second_search). A guess off by more than about 60 degrees of heading,
+   * or a handheld sensor tilted by tens of degrees, is where the first search fails; a
+   * result that passes never pays for it (docs/method.md, "The verdict"). It runs on what
+   * is left of the iteration cap. */
+  int second_search_headings = 4;
   /** Restarts around the best vertex on the finest searched level, each with that level's
    * steps, alternating in sign: they lift the search out of the local optima the voxel
    * quantisation scatters near the peak. 0..100; each costs at least one iteration. */

@@ -151,12 +151,16 @@ struct AlignmentResult {
    * roll and pitch steps, as SearchParameters::narrow_view_tilt_step says for a narrow field
    * of view; false where it turned it about its centroid. */
   bool turned_about_sensor = false;
-  /** Runners-up of the search (other candidates' optima on the finest searched level) that
-   * were refined and verified because the verification did not trust the best one. */
+  /** Runners-up of the search (other candidates' optima on the finest searched level, and
+   * the second search's optima) that were refined and verified because the verification
+   * did not trust the best one. */
   int runners_up_checked = 0;
   /** The result is one of those runners-up: it agreed better with the target on the finest
    * grid (normalised MI) than the search's best. */
   bool runner_up_kept = false;
+  /** The wider second search ran (SearchParameters::second_search_headings); where it found
+   * the result, runner_up_kept is true too. */
+  bool second_search = false;
   /** Mutual information (nats) at the final transformation. */
   double mutual_information = 0.0;
   /** Empty on success, otherwise why the alignment failed. */

@@ -92,6 +92,7 @@ SearchParameters::operator==(const SearchParameters& o) const
          heading_starts == o.heading_starts && position_starts == o.position_starts &&
          narrow_view_position_starts == o.narrow_view_position_starts &&
          narrow_view_tilt_step == o.narrow_view_tilt_step &&
+         second_search_headings == o.second_search_headings &&
          restarts == o.restarts && restart_scale == o.restart_scale &&
          translation_tolerance == o.translation_tolerance &&
          rotation_tolerance == o.rotation_tolerance;
@@ -110,6 +111,7 @@ Parameters::paper()
   p.refinement.method = Refinement::None;
   p.search.narrow_view_position_starts = 0;
   p.search.narrow_view_tilt_step = 0.0;
+  p.search.second_search_headings = 0;
   p.grid.variance_z_binning.range_quantile = 0.0;
   p.grid.point_count_binning.range_quantile = 0.0;
   return p;
@@ -152,6 +154,8 @@ Parameters::validate() const
     s << "narrow-view position starts must be 0..360, got " << f.narrow_view_position_starts;
   else if (!(f.narrow_view_tilt_step >= 0.0 && f.narrow_view_tilt_step <= M_PI))
     s << "the narrow-view tilt step must be 0..pi rad, got " << f.narrow_view_tilt_step;
+  else if (f.second_search_headings < 0 || f.second_search_headings > 360)
+    s << "second-search headings must be 0..360, got " << f.second_search_headings;
   else if (g.pyramid_levels < 1 || g.pyramid_levels > 8)
     s << "pyramid levels must be 1..8, got " << g.pyramid_levels;
   else if (f.restarts < 0 || f.restarts > kMaxRestarts)

@@ -35,6 +35,11 @@ constexpr double kNarrowViewDegrees = 180.0;
  * frame has it within two, a cloud in a far-off map frame far beyond. */
 constexpr double kSensorOriginRadii = 4.0;
 
+/** Roll and pitch steps (rad) of the wider second search, at least: a handheld or legged
+ * sensor tilts by tens of degrees, a car's by a few (SearchParameters::narrow_view_tilt_step
+ * has the same default for the same reason). */
+constexpr double kSecondSearchTiltStep = 0.35;
+
 /** The search's cost: minus the MI of the pose a search vector stands for. */
 class MutualInformationCosts final : public core::LevelCosts {
 public:
@@ -124,6 +129,33 @@ finishCandidate(core::PreparedProblem& problem,
       problem.levelResolution(0), scratch, problem.target().centroid, p.num_threads);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
+}
+
+/** Refines and verifies each of \a optima (search vectors with their searches' convergence)
+ * and puts the one with the highest normalised MI on the finest grid into \a result where
+ * that is higher than the result's own; counts them in result.runners_up_checked. */
+void
+keepTheFinestGridsChoice(core::PreparedProblem& problem,
+                         const core::SearchSpace& space,
+                         const std::vector<core::NelderMeadResult>& optima,
+                         JointHistogram& scratch,
+                         AlignmentResult& result)
+{
+  for (const core::NelderMeadResult& optimum : optima) {
+    AlignmentResult other; // its stages are the caller's stage's
+    other.search_converged = optimum.converged;
+    finishCandidate(problem, space, optimum.x, scratch, other);
+    ++result.runners_up_checked;
+    if (other.verification.normalized_mi > result.verification.normalized_mi) {
+      result.transformation = other.transformation;
+      result.converged = other.converged;
+      result.search_converged = other.search_converged;
+      result.refinement_iterations = other.refinement_iterations;
+      result.mutual_information = other.mutual_information;
+      result.verification = std::move(other.verification);
+      result.runner_up_kept = true;
+    }
+  }
 }
 
 } // namespace
@@ -242,22 +274,33 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   // on often put a wrong optimum first where the finest grid does not (docs/method.md).
   if (!result.verification.reason.empty() && !found.alternatives.empty()) {
     core::StageClock clock;
-    for (const core::NelderMeadResult& alternative : found.alternatives) {
-      AlignmentResult other; // its stages are the runners-up stage's
-      other.search_converged = alternative.converged;
-      finishCandidate(problem, space, alternative.x, impl_->scratch, other);
-      ++result.runners_up_checked;
-      if (other.verification.normalized_mi > result.verification.normalized_mi) {
-        result.transformation = other.transformation;
-        result.converged = other.converged;
-        result.search_converged = other.search_converged;
-        result.refinement_iterations = other.refinement_iterations;
-        result.mutual_information = other.mutual_information;
-        result.verification = std::move(other.verification);
-        result.runner_up_kept = true;
-      }
-    }
+    keepTheFinestGridsChoice(problem, space, found.alternatives, impl_->scratch, result);
     clock.end(result.stages, "runners-up", result.runners_up_checked);
+  }
+
+  // Still not trusted, a 360-degree pair gets a wider second search: more headings and
+  // tilt steps of a handheld sensor. A narrow view's first search is that wide already.
+  const int left = max_iterations - result.iterations;
+  if (!result.verification.reason.empty() && !narrow_view &&
+      p.search.second_search_headings > 0 && left > 0) {
+    core::StageClock clock;
+    core::CoarseToFineOptions wide = options;
+    wide.max_iterations = left;
+    if (wide.yaw_index >= 0)
+      wide.heading_starts = std::max(wide.heading_starts, p.search.second_search_headings);
+    for (const int parameter : {3, 4}) { // roll, pitch; a pinned one stays pinned
+      const Eigen::Index i = space.index(parameter);
+      if (i >= 0 && std::abs(wide.steps[i]) < kSecondSearchTiltStep)
+        wide.steps[i] = std::copysign(kSecondSearchTiltStep, wide.steps[i]);
+    }
+    const core::CoarseToFineResult again = core::searchCoarseToFine(costs, wide);
+    result.second_search = true;
+    result.iterations += again.iterations;
+    result.evaluations += again.evaluations;
+    std::vector<core::NelderMeadResult> optima{again.best};
+    optima.insert(optima.end(), again.alternatives.begin(), again.alternatives.end());
+    keepTheFinestGridsChoice(problem, space, optima, impl_->scratch, result);
+    clock.end(result.stages, "second search", again.evaluations);
   }
   return result;
 }
