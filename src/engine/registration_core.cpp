@@ -131,6 +131,18 @@ finishCandidate(core::PreparedProblem& problem,
   verification_clock.end(result.stages, "verification", 1);
 }
 
+/** Raises the roll and pitch steps of \a options to at least \a step, keeping their signs;
+ * a pinned one stays pinned. */
+void
+widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions& options)
+{
+  for (const int parameter : {3, 4}) {
+    const Eigen::Index i = space.index(parameter);
+    if (i >= 0 && std::abs(options.steps[i]) < step)
+      options.steps[i] = std::copysign(step, options.steps[i]);
+  }
+}
+
 /** Refines and verifies each of \a optima (search vectors with their searches' convergence)
  * and puts the one with the highest normalised MI on the finest grid into \a result where
  * that is higher than the result's own; counts them in result.runners_up_checked. */
@@ -252,11 +264,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
                      narrow_view ? p.search.narrow_view_position_starts : 0)
           : 0;
   if (tilts)
-    for (const int parameter : {3, 4}) { // roll, pitch; a pinned one stays pinned
-      const Eigen::Index i = space.index(parameter);
-      if (i >= 0 && std::abs(options.steps[i]) < p.search.narrow_view_tilt_step)
-        options.steps[i] = std::copysign(p.search.narrow_view_tilt_step, options.steps[i]);
-    }
+    widenTilt(space, p.search.narrow_view_tilt_step, options);
   MutualInformationCosts costs(problem, space);
   const core::CoarseToFineResult found = core::searchCoarseToFine(costs, options);
   // The first search stage also timed the overlap check at the guess.
@@ -288,11 +296,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     wide.max_iterations = left;
     if (wide.yaw_index >= 0)
       wide.heading_starts = std::max(wide.heading_starts, p.search.second_search_headings);
-    for (const int parameter : {3, 4}) { // roll, pitch; a pinned one stays pinned
-      const Eigen::Index i = space.index(parameter);
-      if (i >= 0 && std::abs(wide.steps[i]) < kSecondSearchTiltStep)
-        wide.steps[i] = std::copysign(kSecondSearchTiltStep, wide.steps[i]);
-    }
+    widenTilt(space, kSecondSearchTiltStep, wide);
     const core::CoarseToFineResult again = core::searchCoarseToFine(costs, wide);
     result.second_search = true;
     result.iterations += again.iterations;
