@@ -91,14 +91,9 @@ public:
   int
   drive(NelderMeadRun& run, int level, int slot)
   {
-    int rounds = 0;
-    std::vector<double> values;
-    for (; !run.finished(); ++rounds) {
-      values.assign(run.request().size(), 0.0);
-      costs_.costs(level, slot, run.request(), values);
-      run.reply(values);
-    }
-    return rounds;
+    return runToEnd(run, [&](const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values) {
+      costs_.costs(level, slot, xs, values);
+    });
   }
 
   NelderMeadOptions
@@ -221,7 +216,8 @@ public:
   }
 
   /** Refines \a candidates on \a level with simplices of \a scale times the steps: the
-   * first (the coarser level's optimum) gets the budget, the others a capped search each. The level's best is its own: costs of two levels do not compare. */
+   * first (the coarser level's optimum) gets the budget, the others a capped search each.
+   * The level's best is its own: costs of two levels do not compare. */
   void
   searchFiner(int level, const std::vector<Eigen::VectorXd>& candidates, double scale)
   {
@@ -255,19 +251,11 @@ public:
     // A capped candidate that wins before its search converged is finished from where it
     // got; its result stands even where it only ties, since it carries the convergence.
     if (winner > 0 && !from[winner].converged && budget_ > 0) {
-      const NelderMeadResult finished = finish(level, from[winner].x, steps);
+      const NelderMeadResult finished = search(level, {from[winner].x, 0.5 * steps, budget_});
       account(finished);
       if (finished.value <= result_.best.value)
         result_.best = finished;
     }
-  }
-
-  /** The search from a capped candidate's optimum \a x that finishes it, on the remaining
-   * budget. */
-  NelderMeadResult
-  finish(int level, const Eigen::VectorXd& x, const Eigen::VectorXd& steps)
-  {
-    return search(level, {x, 0.5 * steps, budget_});
   }
 
   /** Restarts around the best vertex with simplices of alternating orientation. */

@@ -191,14 +191,24 @@ minimizeNelderMead(const std::function<double(const Eigen::VectorXd&)>& f,
   NelderMeadOptions one_at_a_time = options;
   one_at_a_time.speculative = false;
   NelderMeadRun run(x0, steps, one_at_a_time);
+  runToEnd(run, [&](const std::vector<Eigen::VectorXd>& points, std::vector<double>& values) {
+    for (std::size_t i = 0; i < points.size(); ++i)
+      values[i] = f(points[i]);
+  });
+  return run.result();
+}
+
+int
+runToEnd(NelderMeadRun& run, const BatchFunction& f)
+{
+  int rounds = 0;
   std::vector<double> values;
-  while (!run.finished()) {
-    values.clear();
-    for (const Eigen::VectorXd& x : run.request())
-      values.push_back(f(x));
+  for (; !run.finished(); ++rounds) {
+    values.assign(run.request().size(), 0.0);
+    f(run.request(), values);
     run.reply(values);
   }
-  return run.result();
+  return rounds;
 }
 
 int

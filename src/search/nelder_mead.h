@@ -114,6 +114,11 @@ minimizeNelderMead(const std::function<double(const Eigen::VectorXd&)>& f,
                    const Eigen::VectorXd& steps,
                    const NelderMeadOptions& options);
 
+/** \brief Drives \a run to its end, one request per call of \a f. Returns the number of
+ * calls. */
+int
+runToEnd(NelderMeadRun& run, const BatchFunction& f);
+
 /** \brief Drives every run of \a runs to its end, handing the requests of all unfinished
  * runs to \a f as one batch per round. Returns the number of rounds (calls of \a f). */
 int
