@@ -63,6 +63,9 @@ miOptionTable(MiOptionSet set)
        format("headings of the wider second search a 360-degree pair gets when its\n"
               "result is not trusted (default %g; 0 = none)",
               d.search.second_search_headings)},
+      {"-leveling", V::Text, "-leveling on|off",
+       "start a 360-degree pair's search leveled where the clouds' up directions\n"
+       "disagree by more than 5 deg, as for a sensor carried tilted (default on)"},
       {"-levels", V::Number, "-levels N",
        format("coarse-to-fine pyramid levels (default %g; 1 = single grid)",
               d.grid.pyramid_levels)},
@@ -171,6 +174,12 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
   if (const char* v = optionValue(argc, argv, "-narrow_view_tilt"))
     p.search.narrow_view_tilt_step = std::atof(v) * M_PI / 180.0;
   readInt(argc, argv, "-second_search", p.search.second_search_headings);
+  if (const char* v = optionValue(argc, argv, "-leveling")) {
+    const std::string leveling = v;
+    if (leveling != "on" && leveling != "off")
+      return "-leveling must be on or off, got '" + leveling + "'";
+    p.search.leveling = leveling == "on";
+  }
   readInt(argc, argv, "-levels", p.grid.pyramid_levels);
   readInt(argc, argv, "-subdivision", p.sampling.source_subdivision);
   readInt(argc, argv, "-restarts", p.search.restarts);

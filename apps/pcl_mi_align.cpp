@@ -300,6 +300,10 @@ run(int argc, char** argv)
                     ? " (narrow field of view)"
                     : "");
   }
+  if (reg.getLastResult().leveled) {
+    print_info("Leveled: ");
+    print_value("yes (the search started with the clouds' up directions made to agree)\n");
+  }
   if (reg.getLastResult().runners_up_checked > 0) {
     print_info("Runners-up of the search checked: ");
     print_value("%d, %s\n", reg.getLastResult().runners_up_checked,

@@ -124,6 +124,7 @@ toSettings(const py::kwargs& kwargs)
        [&](const py::handle& v) { p.search.narrow_view_tilt_step = v.cast<double>(); }},
       {"second_search_headings",
        [&](const py::handle& v) { p.search.second_search_headings = v.cast<int>(); }},
+      {"leveling", [&](const py::handle& v) { p.search.leveling = v.cast<bool>(); }},
       {"restarts", [&](const py::handle& v) { p.search.restarts = v.cast<int>(); }},
       {"restart_scale", [&](const py::handle& v) { p.search.restart_scale = v.cast<double>(); }},
       {"translation_tolerance",

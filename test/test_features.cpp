@@ -6,11 +6,15 @@
 #include "features/feature_binning.h"
 #include <pcl_mi/parameters.h>
 #include "features/source_samples.h"
+#include "features/up_direction.h"
 #include "features/voxel_grid.h"
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
+#include <optional>
 
 using namespace pcl_mi;
 using namespace pcl_mi::core;
@@ -335,4 +339,59 @@ TEST(SourceSamples, MatchPerPointEvaluationWhenCellsSitInsideVoxels)
   EXPECT_EQ(from_points.count, from_cells.count);
   EXPECT_NEAR(featureValue(Feature::VarianceZ, from_points),
               featureValue(Feature::VarianceZ, from_cells), 2e-3);
+}
+
+namespace {
+
+/** A box-shaped room (10 x 6 x 3 m: floor, ceiling, four walls) sampled every 5 cm, or only
+ * its walls, turned by \a turn. */
+PointList
+turnedRoom(const Eigen::Matrix3f& turn, bool floor_and_ceiling)
+{
+  PointList points;
+  const float step = 0.05f;
+  for (float a = 0.0f; a <= 10.0f; a += step)
+    for (float b = 0.0f; b <= 6.0f; b += step)
+      if (floor_and_ceiling) {
+        points.push_back(turn * Eigen::Vector3f(a, b, 0.0f));
+        points.push_back(turn * Eigen::Vector3f(a, b, 3.0f));
+      }
+  for (float h = 0.0f; h <= 3.0f; h += step) {
+    for (float a = 0.0f; a <= 10.0f; a += step) {
+      points.push_back(turn * Eigen::Vector3f(a, 0.0f, h));
+      points.push_back(turn * Eigen::Vector3f(a, 6.0f, h));
+    }
+    for (float b = 0.0f; b <= 6.0f; b += step) {
+      points.push_back(turn * Eigen::Vector3f(0.0f, b, h));
+      points.push_back(turn * Eigen::Vector3f(10.0f, b, h));
+    }
+  }
+  return points;
+}
+
+} // namespace
+
+TEST(UpDirection, FindsTheFloorOfATiltedRoomAndNotItsWalls)
+{
+  for (const auto& [roll, pitch] : {std::make_pair(0.0f, 0.0f), std::make_pair(30.0f, -20.0f),
+                                    std::make_pair(-40.0f, 25.0f)}) {
+    SCOPED_TRACE(testing::Message() << "roll " << roll << ", pitch " << pitch);
+    const Eigen::Matrix3f turn =
+        (Eigen::AngleAxisf(pitch * static_cast<float>(M_PI) / 180.0f, Eigen::Vector3f::UnitY()) *
+         Eigen::AngleAxisf(roll * static_cast<float>(M_PI) / 180.0f, Eigen::Vector3f::UnitX()))
+            .toRotationMatrix();
+    const std::optional<Eigen::Vector3d> up =
+        estimateUpDirection(makeSourceSamples(turnedRoom(turn, true), 0.25));
+    ASSERT_TRUE(up.has_value());
+    const Eigen::Vector3d expected = (turn * Eigen::Vector3f::UnitZ()).cast<double>();
+    EXPECT_LT(std::acos(std::min(1.0, up->dot(expected))) * 180.0 / M_PI, 1.0);
+  }
+  // Walls alone, level: their normals lie 90 deg from up, outside the cone looked in.
+  EXPECT_FALSE(
+      estimateUpDirection(makeSourceSamples(turnedRoom(Eigen::Matrix3f::Identity(), false), 0.25))
+          .has_value());
+  // Single points carry no normal.
+  EXPECT_FALSE(estimateUpDirection(makeSourceSamples(turnedRoom(Eigen::Matrix3f::Identity(), true),
+                                                     0.0))
+                   .has_value());
 }

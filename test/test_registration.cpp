@@ -728,3 +728,49 @@ TEST(Registration, OtherSensorsAlignWithTheDefaults)
     }
   }
 }
+
+// A sensor carried tilted: the bundled Ouster pair with its source turned about the sensor
+// by tens of degrees of roll and pitch (and some yaw), in both directions. The clouds' up
+// directions disagree, the search starts leveled and finds the pose; the same pair taken
+// level is not leveled.
+TEST(Registration, ATiltedSensorIsSearchedFromTheLeveledGuess)
+{
+  Cloud::Ptr source, target;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("seosan01_ouster128", source, target, reference));
+  for (const auto& [roll, pitch, yaw] :
+       {std::make_tuple(25.0, -20.0, 30.0), std::make_tuple(-15.0, 35.0, -60.0)}) {
+    const Eigen::Matrix3d turn =
+        (Eigen::AngleAxisd(yaw * M_PI / 180.0, Eigen::Vector3d::UnitZ()) *
+         Eigen::AngleAxisd(pitch * M_PI / 180.0, Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(roll * M_PI / 180.0, Eigen::Vector3d::UnitX()))
+            .toRotationMatrix();
+    Eigen::Matrix4d turned = Eigen::Matrix4d::Identity();
+    turned.topLeftCorner<3, 3>() = turn;
+    auto tilted = pcl::make_shared<Cloud>();
+    pcl::transformPointCloud(*source, *tilted, turned.cast<float>());
+    const Eigen::Matrix4d tilted_reference = reference * turned.inverse();
+    for (const bool forward : {true, false}) {
+      SCOPED_TRACE(testing::Message() << "roll " << roll << ", pitch " << pitch << ", yaw "
+                                      << yaw << (forward ? ", forward" : ", backward"));
+      pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+      reg.setInputSource(forward ? tilted : target);
+      reg.setInputTarget(forward ? target : tilted);
+      Cloud aligned;
+      reg.align(aligned);
+      EXPECT_TRUE(reg.getLastResult().leveled);
+      EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+      EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
+                       forward ? tilted_reference : Eigen::Matrix4d(tilted_reference.inverse()));
+    }
+  }
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud aligned;
+  reg.align(aligned);
+  EXPECT_FALSE(reg.getLastResult().leveled);
+  reg.setLeveling(false);
+  EXPECT_FALSE(reg.getLeveling());
+  EXPECT_FALSE(pcl_mi::Parameters::paper().search.leveling);
+}

@@ -290,6 +290,21 @@ public:
     return core_.parameters().search.second_search_headings;
   }
 
+  /** \brief Start the search of a 360-degree pair from the guess turned so that the two
+   * clouds' up directions (from their horizontal surfaces) agree, where they disagree by
+   * more than 5 degrees: a sensor carried tilted (default true;
+   * pcl_mi::SearchParameters::leveling). getLastResult().leveled says whether it did. */
+  void
+  setLeveling(bool leveling)
+  {
+    setField("setLeveling", &Params::search, &Search::leveling, leveling);
+  }
+  bool
+  getLeveling() const
+  {
+    return core_.parameters().search.leveling;
+  }
+
   /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of
    * the best one in each translation parameter; 0 (default) = 0.005 * resolution. */
   void

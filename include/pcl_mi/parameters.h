@@ -158,6 +158,13 @@ struct SearchParameters {
    * result that passes never pays for it (docs/method.md, "The verdict"). It runs on what
    * is left of the iteration cap. */
   int second_search_headings = 4;
+  /** For clouds without a narrow field of view: where the two clouds' up directions, read
+   * from their horizontal surfaces (ground, floor, ceiling), disagree under the guess by
+   * more than 5 degrees, both searches start from the guess turned about the source's
+   * centroid so that they agree (AlignmentResult::leveled). A sensor carried or mounted
+   * tilted is where the simplex alone fails to find roll and pitch; scans taken level never
+   * meet the condition (docs/method.md, "Leveling"). */
+  bool leveling = true;
   /** Restarts around the best vertex on the finest searched level, each with that level's
    * steps, alternating in sign: they lift the search out of the local optima the voxel
    * quantisation scatters near the peak. 0..100; each costs at least one iteration. */

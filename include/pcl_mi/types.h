@@ -161,6 +161,10 @@ struct AlignmentResult {
   /** The wider second search ran (SearchParameters::second_search_headings); where it found
    * the result, runner_up_kept is true too. */
   bool second_search = false;
+  /** The search started from the guess turned so that the two clouds' up directions, read
+   * from their horizontal surfaces, agree: they disagreed under the guess by more than
+   * 5 degrees, as between scans of a sensor carried tilted (SearchParameters::leveling). */
+  bool leveled = false;
   /** Mutual information (nats) at the final transformation. */
   double mutual_information = 0.0;
   /** Empty on success, otherwise why the alignment failed. */

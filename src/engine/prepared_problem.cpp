@@ -6,6 +6,7 @@
 #include "engine/derived_defaults.h"
 #include "engine/input_checks.h"
 #include "features/mutual_information.h"
+#include "features/up_direction.h"
 #include "util/parallel.h"
 
 #include <algorithm>
@@ -192,9 +193,11 @@ PreparedProblem::prepare(std::string& error)
   // The distributions also serve the verification, which runs with or without a refinement.
   if (new_target)
     tasks.emplace_back([this, resolution] {
+      const SourceSamples cubes =
+          makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
       distributions_ = std::make_unique<TargetDistributions>(
-          target_.points, parameters_.effectiveRefinementResolution(), kRefinementMinimumPoints,
-          kRefinementNoiseFraction * resolution);
+          cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * resolution);
+      target_up_ = estimateUpDirection(cubes);
     });
   if (new_target)
     for (int l = 0; l < num_levels; ++l)
@@ -421,6 +424,7 @@ PreparedProblem::buildSourceSamples()
   source_levels_.clear();
   for (const double c : cells)
     source_levels_.push_back(samplesFor(c));
+  source_up_ = estimateUpDirection(*source_levels_.front());
 }
 
 } // namespace core

@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -126,6 +127,18 @@ public:
   {
     return *source_levels_.front();
   }
+  /** \brief The clouds' up directions in their local frames (estimateUpDirection() on the
+   * refinement's cubes and samples); nothing where a cloud shows none. */
+  const std::optional<Eigen::Vector3d>&
+  sourceUp() const
+  {
+    return source_up_;
+  }
+  const std::optional<Eigen::Vector3d>&
+  targetUp() const
+  {
+    return target_up_;
+  }
 
   /** \brief Far-outlier warnings of the current clouds. */
   std::vector<std::string>
@@ -174,6 +187,7 @@ private:
   /** The source's samples per level (finest first), built with the source. */
   std::vector<std::shared_ptr<const SourceSamples>> source_levels_;
   std::unique_ptr<TargetDistributions> distributions_;
+  std::optional<Eigen::Vector3d> source_up_, target_up_;
   BackendFactory backends_;
 };
 

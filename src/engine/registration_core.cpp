@@ -6,6 +6,7 @@
 #include <pcl_mi/registration_core.h>
 
 #include "engine/input_checks.h"
+#include "engine/leveled_guess.h"
 #include "engine/prepared_problem.h"
 #include "engine/refine_optimum.h"
 #include "engine/search_space.h"
@@ -20,6 +21,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace pcl_mi {
 
@@ -254,7 +256,15 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
       tilts && source.centroid.norm() <= kSensorOriginRadii * source.rms_radius;
   const Eigen::Vector3d turned_about = about_sensor ? Eigen::Vector3d::Zero() : source.centroid;
   const Eigen::Vector3d pivot = (guess * turned_about.homogeneous()).head<3>();
-  const core::SearchSpace space(p, guess, pivot);
+  // A 360-degree pair whose up directions disagree is searched from the guess leveled, along
+  // the target's up: a tilted sensor's roll and pitch are what the simplex finds least well.
+  const bool tilt_searched = p.search.simplex_steps[3] != 0.0 && p.search.simplex_steps[4] != 0.0;
+  const std::optional<core::Leveling> leveled =
+      p.search.leveling && tilt_searched && !narrow_view
+          ? core::levelGuess(problem.sourceUp(), problem.targetUp(), guess, pivot)
+          : std::nullopt;
+  const core::SearchSpace space = leveled ? core::SearchSpace(p, leveled->guess, pivot, leveled->axes)
+                                          : core::SearchSpace(p, guess, pivot);
   core::CoarseToFineOptions options = space.searchOptions(p);
   options.first_level = problem.firstSearchedLevel();
   options.max_iterations = max_iterations;
@@ -271,6 +281,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.stages.insert(result.stages.end(), found.stages.begin(), found.stages.end());
   result.position_starts = options.position_starts;
   result.turned_about_sensor = about_sensor;
+  result.leveled = leveled.has_value();
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
   result.search_converged = found.best.converged;

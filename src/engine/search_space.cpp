@@ -20,13 +20,30 @@ SearchSpace::SearchSpace(const Parameters& parameters,
       active_.push_back(i);
 }
 
+SearchSpace::SearchSpace(const Parameters& parameters,
+                         const Eigen::Matrix4d& guess,
+                         const Eigen::Vector3d& pivot,
+                         const Eigen::Matrix3d& axes)
+: SearchSpace(parameters, guess, pivot)
+{
+  axes_ = axes;
+}
+
 Eigen::Matrix4d
 SearchSpace::pose(const Eigen::VectorXd& x) const
 {
   Vector6d full = Vector6d::Zero();
   for (std::size_t i = 0; i < active_.size(); ++i)
     full[active_[i]] = x[static_cast<Eigen::Index>(i)];
-  return transformFromParameters(full, guess_, pivot_);
+  if (!axes_)
+    return transformFromParameters(full, guess_, pivot_);
+  // transformFromParameters() with its translation and rotation expressed in the axes.
+  const Eigen::Matrix3d& a = *axes_;
+  const Eigen::Matrix3d r = a * rotationFromRollPitchYaw(full[3], full[4], full[5]) * a.transpose();
+  Eigen::Matrix4d move = Eigen::Matrix4d::Identity();
+  move.topLeftCorner<3, 3>() = r;
+  move.topRightCorner<3, 1>() = a * full.head<3>() + pivot_ - r * pivot_;
+  return move * guess_;
 }
 
 Eigen::Index

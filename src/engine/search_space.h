@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <optional>
 #include <vector>
 
 namespace pcl_mi {
@@ -22,6 +23,14 @@ public:
   /** \brief The space around \a guess whose rotations turn the guessed source about
    * \a pivot; only parameters with a non-zero step are searched (a zero step pins one). */
   SearchSpace(const Parameters& parameters, const Eigen::Matrix4d& guess, const Eigen::Vector3d& pivot);
+
+  /** \brief The same, with the translations and rotations taken along the columns of
+   * \a axes (a rotation, target frame) instead of the target's axes: yaw turns about the
+   * third column, and tz moves along it. */
+  SearchSpace(const Parameters& parameters,
+              const Eigen::Matrix4d& guess,
+              const Eigen::Vector3d& pivot,
+              const Eigen::Matrix3d& axes);
 
   /** \brief Source-to-target transformation of the search vector \a x. */
   Eigen::Matrix4d
@@ -44,6 +53,7 @@ private:
   std::vector<int> active_; // the searched parameters, in order
   Eigen::Matrix4d guess_;
   Eigen::Vector3d pivot_;
+  std::optional<Eigen::Matrix3d> axes_; // none: the target's axes
 };
 
 } // namespace core

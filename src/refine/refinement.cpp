@@ -188,16 +188,21 @@ TargetDistributions::TargetDistributions(const PointList& points,
                                          double cell_size,
                                          int min_points,
                                          double noise_sigma)
-: cell_size_(cell_size),
-  inv_cell_(static_cast<float>(1.0 / cell_size)),
-  origin_(Eigen::Vector3f::Zero())
+: TargetDistributions(makeSourceSamples(points, cell_size), min_points, noise_sigma)
+{}
+
+TargetDistributions::TargetDistributions(const SourceSamples& cells,
+                                         int min_points,
+                                         double noise_sigma)
+: cell_size_(cells.cell_size),
+  inv_cell_(static_cast<float>(1.0 / cells.cell_size)),
+  origin_(cells.grid_origin)
 {
-  if (points.empty())
+  if (cells.samples.empty())
     return;
   // The cubes are makeSourceSamples' cells: its per-cell centroid and covariance are exactly
   // the statistics needed here, and its grid origin is where keyOf() must start.
-  const SourceSamples cells = makeSourceSamples(points, cell_size);
-  origin_ = cells.grid_origin;
+  const double cell_size = cell_size_;
 
   // Every cell by key, sparse ones included: the neighbourhood of a strip pools them all.
   Slots cell_slots;

@@ -38,6 +38,10 @@ public:
                       int min_points,
                       double noise_sigma);
 
+  /** \brief The same from the cubes' summaries, \a cells = makeSourceSamples(points,
+   * cell_size), for a caller that reads them too. */
+  TargetDistributions(const SourceSamples& cells, int min_points, double noise_sigma);
+
   /** \brief Index of the distribution whose cube holds \a p, or -1. */
   int
   find(const Eigen::Vector3f& p) const;

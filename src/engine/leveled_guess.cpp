@@ -1,0 +1,45 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "engine/leveled_guess.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+
+namespace pcl_mi {
+namespace core {
+
+std::optional<Leveling>
+levelGuess(const std::optional<Eigen::Vector3d>& source_up,
+           const std::optional<Eigen::Vector3d>& target_up,
+           const Eigen::Matrix4d& guess,
+           const Eigen::Vector3d& pivot)
+{
+  if (!source_up || !target_up)
+    return std::nullopt;
+  const Eigen::Vector3d& up = *target_up;
+  const Eigen::Vector3d moved = guess.topLeftCorner<3, 3>() * *source_up;
+  const double angle = std::acos(std::clamp(moved.dot(up), -1.0, 1.0));
+  if (angle <= kLevelingDegrees * M_PI / 180.0)
+    return std::nullopt;
+  Leveling leveling;
+  Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
+  turn.topLeftCorner<3, 3>() = Eigen::Quaterniond::FromTwoVectors(moved, up).toRotationMatrix();
+  turn.topRightCorner<3, 1>() = pivot - turn.topLeftCorner<3, 3>() * pivot;
+  leveling.guess = turn * guess;
+  // Up lies within 60 degrees of the target's z (estimateUpDirection()), so x and y cannot
+  // both be parallel to it.
+  Eigen::Vector3d x = Eigen::Vector3d::UnitX() - up.x() * up;
+  if (x.norm() < 0.5)
+    x = Eigen::Vector3d::UnitY() - up.y() * up;
+  x.normalize();
+  leveling.axes.col(0) = x;
+  leveling.axes.col(1) = up.cross(x);
+  leveling.axes.col(2) = up;
+  return leveling;
+}
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,40 @@
+/*
+ * pcl_mi: a guess turned so that the two clouds' up directions agree, and the axes to
+ * search it along, for sensors carried tilted.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <Eigen/Core>
+
+#include <optional>
+
+namespace pcl_mi {
+namespace core {
+
+/** \brief Disagreement of the up directions (degrees) that leveling corrects: the estimates
+ * agree to about a degree on scans taken level, and the search's default roll and pitch
+ * steps cover a few degrees. */
+constexpr double kLevelingDegrees = 5.0;
+
+/** \brief Where to search a tilted pair from, in the target frame. */
+struct Leveling {
+  /** The guess turned about the pivot so that the source's up direction meets the
+   * target's. */
+  Eigen::Matrix4d guess;
+  /** Search axes: the third is the target's up, the first the target's x made horizontal,
+   * so that yaw turns about up and x, y move along the ground, as for a level sensor. */
+  Eigen::Matrix3d axes;
+};
+
+/** \brief The leveling of \a guess about \a pivot (target frame) by the least rotation that
+ * takes the source's up direction \a source_up, as the guess moves it, onto the target's
+ * \a target_up; nothing where either is unknown or the two agree within kLevelingDegrees. */
+std::optional<Leveling>
+levelGuess(const std::optional<Eigen::Vector3d>& source_up,
+           const std::optional<Eigen::Vector3d>& target_up,
+           const Eigen::Matrix4d& guess,
+           const Eigen::Vector3d& pivot);
+
+} // namespace core
+} // namespace pcl_mi
