@@ -2,15 +2,17 @@
 """Writes a tilted copy of a pair list, for sensors carried or mounted tilted: each row's
 source scan is turned about its sensor (the origin of its frame) by a random roll and pitch
 (each uniform in +-TILT deg) and yaw (uniform in +-YAW deg), and the row's reference
-follows, so the rows' pairs are those of the list, seen by a tilted sensor.
+follows, so the rows' pairs are those of the list, seen by a tilted sensor. With --both,
+each row's target is turned too, by its own random roll and pitch (no yaw), as a sensor
+carried by hand tilts for every scan.
 
-usage: tilted_set.py LIST OUT_DIR [--tilt 30] [--yaw 90] [--seed 1] [--stride 1]
+usage: tilted_set.py LIST OUT_DIR [--tilt 30] [--yaw 90] [--seed 1] [--stride 1] [--both]
 
 LIST is a `pcl_mi_compare -list` file whose scans are KITTI-style .bin files (float32 x y
 z intensity). OUT_DIR gets scans/ (the turned sources, and links to the targets) and
 list.txt for `pcl_mi_compare -list OUT_DIR/list.txt`, which runs every row both ways, so
-either cloud of a pair is the tilted one. The reference becomes T * R^-1 for a reference T
-and a turn R of the source.
+either cloud of a pair is the tilted one. The reference becomes Q * T * R^-1 for a reference
+T, a turn R of the source and a turn Q of the target (the identity without --both).
 """
 import argparse
 import os
@@ -39,6 +41,7 @@ def main():
     parser.add_argument("--yaw", type=float, default=90.0, help="largest |yaw| (deg)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--stride", type=int, default=1, help="every STRIDE-th row only")
+    parser.add_argument("--both", action="store_true", help="turn each row's target too")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     base = os.path.dirname(os.path.abspath(args.list))
@@ -46,27 +49,40 @@ def main():
     rows = []
     with open(args.list) as f:
         lines = [line.split() for line in f if line.strip()]
+    def turned_copy(path, turn, name):
+        scan = np.fromfile(os.path.join(base, path), dtype=np.float32).reshape(-1, 4)
+        turned = scan.copy()
+        turned[:, :3] = (scan[:, :3].astype(np.float64) @ turn.T).astype(np.float32)
+        turned.tofile(os.path.join(args.out, name))
+
     for k, fields in enumerate(lines):
         turn = rotation(rng.uniform(-args.tilt, args.tilt), rng.uniform(-args.tilt, args.tilt),
                         rng.uniform(-args.yaw, args.yaw))
+        target_turn = np.eye(3)
+        if args.both:
+            target_turn = rotation(rng.uniform(-args.tilt, args.tilt),
+                                   rng.uniform(-args.tilt, args.tilt), 0.0)
         if k % args.stride:
             continue
         source, target = fields[0], fields[1]
         numbers = np.array([float(v) for v in fields[2:]])
         reference = np.eye(4)
         reference[:3] = numbers[:12].reshape(3, 4)
-        scan = np.fromfile(os.path.join(base, source), dtype=np.float32).reshape(-1, 4)
-        turned = scan.copy()
-        turned[:, :3] = (scan[:, :3].astype(np.float64) @ turn.T).astype(np.float32)
         name = "scans/source_%05d.bin" % k
-        turned.tofile(os.path.join(args.out, name))
-        target_name = "scans/" + os.path.basename(target)
-        link = os.path.join(args.out, target_name)
-        if not os.path.lexists(link):
-            os.symlink(os.path.join(base, target), link)
+        turned_copy(source, turn, name)
+        if args.both:
+            target_name = "scans/target_%05d.bin" % k
+            turned_copy(target, target_turn, target_name)
+        else:
+            target_name = "scans/" + os.path.basename(target)
+            link = os.path.join(args.out, target_name)
+            if not os.path.lexists(link):
+                os.symlink(os.path.join(base, target), link)
         inverse = np.eye(4)
         inverse[:3, :3] = turn.T
-        moved = reference @ inverse
+        target_side = np.eye(4)
+        target_side[:3, :3] = target_turn
+        moved = target_side @ reference @ inverse
         rows.append(" ".join([name, target_name] + ["%.9f" % v for v in moved[:3].ravel()]))
     with open(os.path.join(args.out, "list.txt"), "w") as f:
         f.write("\n".join(rows) + "\n")

@@ -4,6 +4,7 @@
 #include "refine/refinement.h"
 #include "features/source_samples.h"
 #include "features/voxel_grid.h"
+#include "verify/verification.h"
 
 #include <pcl_mi/io.h>
 #include <pcl_mi/kitti.h>
@@ -248,4 +249,30 @@ TEST(TargetDistributions, TakeTheSurfaceOfStripsFromTheirNeighbourhood)
   }
   std::sort(own_tilt_deg.begin(), own_tilt_deg.end());
   EXPECT_GT(own_tilt_deg[own_tilt_deg.size() / 2], 8.0);
+}
+
+// The verification works in the target local frame and reports in the input frame: the same
+// local evidence under turned target axes gives the covariance and the observability
+// directions turned alike ([t, omega] both turn), and the same confidence.
+TEST(Verification, TargetAxesTurnTheReportedCovarianceAndDirections)
+{
+  const PointList points = bundledScan();
+  const TargetDistributions target(points, 0.7, 4, 0.05);
+  const SourceSamples source = makeSourceSamples(points, 0.5);
+  const JointHistogram histogram;
+  const Eigen::Matrix3d axes =
+      (Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(-0.3, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  const Eigen::Vector3d shift(0.2, -0.1, 0.05);
+  const Verification level = verifyPose(target, source, Eigen::Matrix3d::Identity(), shift, 1.0,
+                                        histogram, Eigen::Vector3d::Zero(),
+                                        Eigen::Matrix3d::Identity());
+  const Verification turned = verifyPose(target, source, Eigen::Matrix3d::Identity(), shift, 1.0,
+                                         histogram, Eigen::Vector3d::Zero(), axes);
+  ASSERT_GT(level.covariance.norm(), 0.0);
+  Eigen::Matrix<double, 6, 6> turn = Eigen::Matrix<double, 6, 6>::Zero();
+  turn.topLeftCorner<3, 3>() = turn.bottomRightCorner<3, 3>() = axes;
+  EXPECT_TRUE(turned.covariance.isApprox(turn * level.covariance * turn.transpose(), 1e-9));
+  EXPECT_TRUE(turned.observability_directions.isApprox(turn * level.observability_directions, 1e-9));
+  EXPECT_EQ(turned.confidence, level.confidence);
 }

@@ -10,7 +10,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
+#include <sstream>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -152,4 +156,43 @@ TEST(Verification, InformationFreeInputsAreNotTrusted)
     expectNotTrusted(reg, "not converged");
     EXPECT_LT(reg.getConfidence(), 0.5);
   }
+}
+
+// A tilted target is voxelised along its up direction, and the verdict still speaks of its
+// input frame: a corridor pitched by 25 deg, aligned from its true pose, is degenerate along
+// its length, which then has an x and a z component.
+TEST(Verification, ATiltedCorridorIsDegenerateAlongItsLengthInTheInputFrame)
+{
+  const Eigen::Matrix4d pitch =
+      Eigen::Affine3d(Eigen::AngleAxisd(25.0 * M_PI / 180.0, Eigen::Vector3d::UnitY())).matrix();
+  auto tilted = [&](const Cloud& cloud) {
+    auto out = pcl::make_shared<Cloud>();
+    pcl::transformPointCloud(cloud, *out, pitch.cast<float>());
+    return out;
+  };
+  std::mt19937 rng(2);
+  Cloud corridor;
+  addBox(corridor, {-30.0f, -2.0f, 0.0f}, {30.0f, 2.0f, 0.0f}, 20000, rng);
+  addBox(corridor, {-30.0f, -2.0f, 0.0f}, {30.0f, -2.0f, 3.0f}, 20000, rng);
+  addBox(corridor, {-30.0f, 2.0f, 0.0f}, {30.0f, 2.0f, 3.0f}, 20000, rng);
+  const Eigen::Matrix4d truth = pitch * test_data::planarMotion(1.5, 0.0, 0.0).inverse() *
+                                pitch.inverse();
+  Registration reg;
+  reg.setInputSource(tilted(*moved(corridor, 1.5, 0.0, 0.0)));
+  reg.setInputTarget(tilted(corridor));
+  Cloud aligned;
+  reg.align(aligned, truth.cast<float>());
+  expectNotTrusted(reg, "degenerate along x");
+  // The axes the free directions move, as named: the length moves x and z, not y.
+  const std::string& error = reg.getLastError();
+  const std::size_t from = error.find("along ") + 6;
+  const std::string axes = error.substr(from, error.find(':', from) - from);
+  std::vector<std::string> named;
+  std::stringstream words(axes);
+  for (std::string word; words >> word;)
+    if (word != "and")
+      named.push_back(word.substr(0, word.find(',')));
+  EXPECT_NE(std::find(named.begin(), named.end(), "x"), named.end()) << axes;
+  EXPECT_NE(std::find(named.begin(), named.end(), "z"), named.end()) << axes;
+  EXPECT_EQ(std::find(named.begin(), named.end(), "y"), named.end()) << axes;
 }

@@ -110,7 +110,8 @@ struct SamplingParameters {
 };
 
 /** \brief The Nelder-Mead search over [tx, ty, tz, roll, pitch, yaw]. A change rebuilds
- * nothing. The iteration cap is the PCL base class's (setMaximumIterations()), or
+ * nothing, except of leveling and of which steps are zero (the target's frame). The
+ * iteration cap is the PCL base class's (setMaximumIterations()), or
  * RegistrationCore::align()'s argument. */
 struct SearchParameters {
   /** Initial simplex step per parameter [tx, ty, tz, roll, pitch, yaw (rad)]. A positive
@@ -161,9 +162,12 @@ struct SearchParameters {
   /** For clouds without a narrow field of view: where the two clouds' up directions, read
    * from their horizontal surfaces (ground, floor, ceiling), disagree under the guess by
    * more than 5 degrees, both searches start from the guess turned about the source's
-   * centroid so that they agree (AlignmentResult::leveled). A sensor carried or mounted
-   * tilted is where the simplex alone fails to find roll and pitch; scans taken level never
-   * meet the condition (docs/method.md, "Leveling"). */
+   * centroid so that they agree, and search along the target's up
+   * (AlignmentResult::leveled); and a target tilted by more than 5 degrees is voxelised in
+   * a frame turned level, so that its z-variance feature is taken along up. A sensor
+   * carried or mounted tilted is where the simplex alone fails to find roll and pitch;
+   * scans taken level never meet the conditions (docs/method.md, "Leveling"). Unlike the
+   * other search fields, a change rebuilds the target. Ignored when a parameter is pinned. */
   bool leveling = true;
   /** Restarts around the best vertex on the finest searched level, each with that level's
    * steps, alternating in sign: they lift the search out of the local optima the voxel

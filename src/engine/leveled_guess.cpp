@@ -11,6 +11,20 @@
 namespace pcl_mi {
 namespace core {
 
+Eigen::Matrix3d
+levelAxes(const Eigen::Vector3d& up)
+{
+  Eigen::Vector3d x = Eigen::Vector3d::UnitX() - up.x() * up;
+  if (x.norm() < 0.5)
+    x = Eigen::Vector3d::UnitY() - up.y() * up;
+  x.normalize();
+  Eigen::Matrix3d axes;
+  axes.col(0) = x;
+  axes.col(1) = up.cross(x);
+  axes.col(2) = up;
+  return axes;
+}
+
 std::optional<Leveling>
 levelGuess(const std::optional<Eigen::Vector3d>& source_up,
            const std::optional<Eigen::Vector3d>& target_up,
@@ -29,15 +43,7 @@ levelGuess(const std::optional<Eigen::Vector3d>& source_up,
   turn.topLeftCorner<3, 3>() = Eigen::Quaterniond::FromTwoVectors(moved, up).toRotationMatrix();
   turn.topRightCorner<3, 1>() = pivot - turn.topLeftCorner<3, 3>() * pivot;
   leveling.guess = turn * guess;
-  // Up lies within 60 degrees of the target's z (estimateUpDirection()), so x and y cannot
-  // both be parallel to it.
-  Eigen::Vector3d x = Eigen::Vector3d::UnitX() - up.x() * up;
-  if (x.norm() < 0.5)
-    x = Eigen::Vector3d::UnitY() - up.y() * up;
-  x.normalize();
-  leveling.axes.col(0) = x;
-  leveling.axes.col(1) = up.cross(x);
-  leveling.axes.col(2) = up;
+  leveling.axes = levelAxes(up);
   return leveling;
 }
 

@@ -27,6 +27,11 @@ struct Leveling {
   Eigen::Matrix3d axes;
 };
 
+/** \brief Axes whose third is \a up and whose first is the frame's x made horizontal (its y
+ * where x lies within 30 degrees of up): a level frame for a tilted cloud. */
+Eigen::Matrix3d
+levelAxes(const Eigen::Vector3d& up);
+
 /** \brief The leveling of \a guess about \a pivot (target frame) by the least rotation that
  * takes the source's up direction \a source_up, as the guess moves it, onto the target's
  * \a target_up; nothing where either is unknown or the two agree within kLevelingDegrees. */

@@ -5,6 +5,7 @@
 
 #include "engine/derived_defaults.h"
 #include "engine/input_checks.h"
+#include "engine/leveled_guess.h"
 #include "features/mutual_information.h"
 #include "features/up_direction.h"
 #include "util/parallel.h"
@@ -26,6 +27,14 @@ constexpr int kRefinementMinimumPoints = 4;
 /** Noise (standard deviation) added to the refinement's target covariances, as a fraction
  * of the MI resolution: about the range noise of a spinning LiDAR at 1 m voxels. */
 constexpr double kRefinementNoiseFraction = 0.05;
+
+/** True where \a p levels a tilted target's frame: leveling on and every parameter searched
+ * (pinned ones mean the target's own axes). */
+bool
+levelsTargetFrame(const Parameters& p)
+{
+  return p.search.leveling && (p.search.simplex_steps.array() != 0.0).all();
+}
 
 /** Share of a cloud's usable points whose loss as far outliers is worth a warning: a few
  * stray returns are what the rule is for, a second site is not. */
@@ -84,7 +93,8 @@ PreparedProblem::resolveParameters()
   const bool sampling = old.sampling != p.sampling;
   const bool backend = old.backend != p.backend ||
                        (p.backend.type == Backend::Auto && sampling);
-  target_dirty_ = target_dirty_ || grid || old.refinement != p.refinement || backend;
+  target_dirty_ = target_dirty_ || grid || old.refinement != p.refinement || backend ||
+                  levelsTargetFrame(old) != levelsTargetFrame(p);
   source_dirty_ = source_dirty_ || grid || sampling;
   parameters_ = p;
 }
@@ -184,26 +194,19 @@ PreparedProblem::prepare(std::string& error)
     levels_.clear();
     levels_.resize(static_cast<std::size_t>(num_levels));
     distributions_.reset();
+    target_axes_.setIdentity();
   }
 
   // Longest first: a free thread takes the next task.
   std::vector<std::function<void()>> tasks;
   if (new_source)
     tasks.emplace_back([this] { buildSourceSamples(); });
-  // The distributions also serve the verification, which runs with or without a refinement.
   if (new_target)
-    tasks.emplace_back([this, resolution] {
-      const SourceSamples cubes =
-          makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
-      distributions_ = std::make_unique<TargetDistributions>(
-          cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * resolution);
-      target_up_ = estimateUpDirection(cubes);
-    });
-  if (new_target)
-    for (int l = 0; l < num_levels; ++l)
-      tasks.emplace_back([this, l] { buildGrid(l); });
+    appendTargetTasks(tasks);
   parallelFor(static_cast<int>(tasks.size()), parameters_.num_threads,
               [&](int task) { tasks[static_cast<std::size_t>(task)](); });
+  if (new_target)
+    levelTarget();
 
   target_dirty_ = false;
   source_dirty_ = false;
@@ -251,11 +254,15 @@ PreparedProblem::backend(int level, int slot)
 LocalPose
 PreparedProblem::toLocal(const Eigen::Matrix4d& pose) const
 {
-  // target_local = R * source_local + R c_s + t - c_t.
+  // target_local = A^T (R * source_local + R c_s + t - c_t), A the target's axes.
   LocalPose local;
   local.rotation = pose.topLeftCorner<3, 3>();
   local.translation =
       local.rotation * source_.centroid + pose.topRightCorner<3, 1>() - target_.centroid;
+  if (!target_axes_.isIdentity(0.0)) {
+    local.rotation = target_axes_.transpose() * local.rotation;
+    local.translation = target_axes_.transpose() * local.translation;
+  }
   return local;
 }
 
@@ -263,9 +270,9 @@ Eigen::Matrix4d
 PreparedProblem::fromLocal(const LocalPose& local) const
 {
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
-  pose.topLeftCorner<3, 3>() = local.rotation;
-  pose.topRightCorner<3, 1>() =
-      local.translation - local.rotation * source_.centroid + target_.centroid;
+  pose.topLeftCorner<3, 3>() = target_axes_ * local.rotation;
+  pose.topRightCorner<3, 1>() = target_axes_ * local.translation -
+                                pose.topLeftCorner<3, 3>() * source_.centroid + target_.centroid;
   return pose;
 }
 
@@ -351,6 +358,49 @@ PreparedProblem::resetBackendProfile()
     for (auto& slot : level.slots)
       if (slot)
         slot->resetProfile();
+}
+
+void
+PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks)
+{
+  // The distributions also serve the verification, which runs with or without a refinement.
+  tasks.emplace_back([this] {
+    const SourceSamples cubes =
+        makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
+    distributions_ = std::make_unique<TargetDistributions>(
+        cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * parameters_.grid.resolution);
+    target_up_ = estimateUpDirection(cubes);
+    if (target_up_)
+      *target_up_ = target_axes_ * *target_up_;
+  });
+  for (int l = 0; l < static_cast<int>(levels_.size()); ++l)
+    tasks.emplace_back([this, l] { buildGrid(l); });
+}
+
+void
+PreparedProblem::levelTarget()
+{
+  if (!levelsTargetFrame(parameters_) || !target_up_ ||
+      target_.azimuth_coverage_deg < kNarrowViewDegrees ||
+      std::acos(std::clamp(target_up_->z(), -1.0, 1.0)) <= kLevelingDegrees * M_PI / 180.0)
+    return;
+  const Eigen::Matrix3d axes = levelAxes(*target_up_);
+  PointList turned(target_.points.size());
+  const Eigen::Matrix3f to_local = axes.transpose().cast<float>();
+  for (std::size_t i = 0; i < turned.size(); ++i)
+    turned[i] = to_local * target_.points[i];
+  GridGeometry finest;
+  std::string error;
+  if (!makeGridGeometry(turned, parameters_.grid.resolution, finest, error))
+    return;
+  target_.points = std::move(turned);
+  target_axes_ = axes;
+  const std::optional<Eigen::Vector3d> up = target_up_;
+  std::vector<std::function<void()>> tasks;
+  appendTargetTasks(tasks);
+  parallelFor(static_cast<int>(tasks.size()), parameters_.num_threads,
+              [&](int task) { tasks[static_cast<std::size_t>(task)](); });
+  target_up_ = up; // the same direction, estimated once
 }
 
 void

@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -139,6 +140,16 @@ public:
   {
     return target_up_;
   }
+  /** \brief The target local frame's axes in the target's input frame: input = centroid +
+   * axes * local. Level axes (levelAxes(), third along targetUp()) where the parameters
+   * level and the target is a 360-degree scan tilted by more than kLevelingDegrees, so that
+   * the grids' z, along which the z-variance feature is taken, is up; the identity
+   * otherwise. */
+  const Eigen::Matrix3d&
+  targetAxes() const
+  {
+    return target_axes_;
+  }
 
   /** \brief Far-outlier warnings of the current clouds. */
   std::vector<std::string>
@@ -170,6 +181,15 @@ private:
   backend(int level, int slot);
   void
   buildGrid(int level);
+  /** Appends the tasks that build the target's distributions (and its up direction) and
+   * grids. */
+  void
+  appendTargetTasks(std::vector<std::function<void()>>& tasks);
+  /** Turns the target local frame level where the parameters ask for it and the target is
+   * a tilted 360-degree scan, and rebuilds what was built in the old frame. A target that
+   * turned would need more voxels than a grid holds stays as it was. */
+  void
+  levelTarget();
   void
   buildSourceSamples();
   FeatureBinning
@@ -188,6 +208,7 @@ private:
   std::vector<std::shared_ptr<const SourceSamples>> source_levels_;
   std::unique_ptr<TargetDistributions> distributions_;
   std::optional<Eigen::Vector3d> source_up_, target_up_;
+  Eigen::Matrix3d target_axes_ = Eigen::Matrix3d::Identity();
   BackendFactory backends_;
 };
 

@@ -27,11 +27,6 @@ namespace pcl_mi {
 
 namespace {
 
-/** Azimuth coverage (degrees) below which a cloud has a narrow field of view
- * (SearchParameters::narrow_view_position_starts): a spinning LiDAR's scan covers 360, a
- * solid-state sensor's its field of view. */
-constexpr double kNarrowViewDegrees = 180.0;
-
 /** Distance from the centroid, in RMS radii of the points, within which a cloud's origin
  * is taken for its sensor (SearchParameters::narrow_view_tilt_step): a scan in its sensor's
  * frame has it within two, a cloud in a far-off map frame far beyond. */
@@ -128,7 +123,8 @@ finishCandidate(core::PreparedProblem& problem,
   const core::LocalPose at = problem.toLocal(result.transformation);
   result.verification = core::verifyPose(
       problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
-      problem.levelResolution(0), scratch, problem.target().centroid, p.num_threads);
+      problem.levelResolution(0), scratch, problem.target().centroid, problem.targetAxes(),
+      p.num_threads);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
 }
@@ -250,7 +246,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   const Parameters& p = problem.parameters();
   const core::LocalCloud& source = problem.source();
   const bool narrow_view = std::min(problem.target().azimuth_coverage_deg,
-                                    source.azimuth_coverage_deg) < kNarrowViewDegrees;
+                                    source.azimuth_coverage_deg) < core::kNarrowViewDegrees;
   const bool tilts = narrow_view && p.search.narrow_view_tilt_step > 0.0;
   const bool about_sensor =
       tilts && source.centroid.norm() <= kSensorOriginRadii * source.rms_radius;

@@ -38,6 +38,10 @@ struct LocalCloud {
   double azimuth_coverage_deg = 0.0;
 };
 
+/** \brief Azimuth coverage (degrees) below which a cloud has a narrow field of view: a
+ * spinning LiDAR's scan covers 360, a solid-state sensor's its field of view. */
+constexpr double kNarrowViewDegrees = 180.0;
+
 /** \brief Degrees of azimuth, about the z axis through the origin of their frame, that
  * \a points cover: the sum of the 5-degree sectors
  * holding at least 5 % of an even share of the points. 360 for a spinning LiDAR's scan in its

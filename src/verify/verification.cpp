@@ -150,11 +150,14 @@ probeContrast(const InlierProbe& probe, double step, double turn, double lost[6]
                           : probe.lostTurningEitherWay(axis - 3, turn);
 }
 
-/** Observability and covariance from the point-to-plane information of \a at. */
+/** Observability and covariance from the point-to-plane information of \a at; the
+ * covariance in the input frame (\a target_axes, \a target_centroid), the directions still
+ * in the local frame. */
 void
 planeInformation(const PoseEvidence& at,
                  double radius,
                  const Eigen::Vector3d& target_centroid,
+                 const Eigen::Matrix3d& target_axes,
                  Verification& v)
 {
   // [omega, delta] -> [delta, omega], rotations scaled to metres at the RMS radius.
@@ -186,7 +189,11 @@ planeInformation(const PoseEvidence& at,
   const Eigen::Matrix<double, 6, 1> step =
       scaled_inverse * (scale.asDiagonal() * (order * at.plane_gradient));
   const Matrix6d scaled_covariance = variance * scaled_inverse + step * step.transpose();
-  const Matrix6d local = scale.asDiagonal() * scaled_covariance * scale.asDiagonal();
+  Matrix6d to_input = Matrix6d::Zero(); // [delta, omega] turn alike
+  to_input.block<3, 3>(0, 0) = target_axes;
+  to_input.block<3, 3>(3, 3) = target_axes;
+  const Matrix6d local =
+      to_input * scale.asDiagonal() * scaled_covariance * scale.asDiagonal() * to_input.transpose();
   Matrix6d to_origin = Matrix6d::Identity();
   Eigen::Matrix3d cross;
   cross << 0.0, -target_centroid.z(), target_centroid.y(), //
@@ -219,6 +226,7 @@ verifyPose(const TargetDistributions& target,
            double resolution,
            const JointHistogram& histogram,
            const Eigen::Vector3d& target_centroid,
+           const Eigen::Matrix3d& target_axes,
            int num_threads)
 {
   Verification v;
@@ -247,7 +255,7 @@ verifyPose(const TargetDistributions& target,
   const double floor_entropy = std::min(h.source, h.target);
   v.normalized_mi = floor_entropy > 0.0 ? h.mutualInformation() / floor_entropy : 0.0;
 
-  planeInformation(at, radius, target_centroid, v);
+  planeInformation(at, radius, target_centroid, target_axes, v);
   v.confidence = confidenceOf(v);
   // The two least observable directions ([t, omega * radius]), moved one voxel either way.
   bool free[2] = {false, false};
@@ -258,6 +266,10 @@ verifyPose(const TargetDistributions& target,
   });
   for (int k = 0; k < 2; ++k)
     free[k] = v.free_direction_contrast[k] < kFreeDirectionContrast;
+  // Reported in the input frame: [delta, omega * radius] turn alike.
+  v.observability_directions.topRows<3>() = target_axes * v.observability_directions.topRows<3>();
+  v.observability_directions.bottomRows<3>() =
+      target_axes * v.observability_directions.bottomRows<3>();
   if (free[0] || free[1] || at.inliers < kMinimumInliers)
     v.covariance.setZero();
 

@@ -21,9 +21,10 @@ constexpr double kReliableConfidence = 0.9;
 
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
- * histogram at the pose, \a target_centroid the target local frame's origin in the target's
- * input frame (the covariance is given about the input frame's origin). It runs on up to
- * \a num_threads threads, with the same result on any number. */
+ * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
+ * in the target's input frame (input = centroid + axes * local), in which the covariance
+ * (about the input frame's origin) and the observability directions are given. It runs on
+ * up to \a num_threads threads, with the same result on any number. */
 Verification
 verifyPose(const TargetDistributions& target,
            const SourceSamples& source,
@@ -32,6 +33,7 @@ verifyPose(const TargetDistributions& target,
            double resolution,
            const JointHistogram& histogram,
            const Eigen::Vector3d& target_centroid,
+           const Eigen::Matrix3d& target_axes,
            int num_threads = 1);
 
 } // namespace core
