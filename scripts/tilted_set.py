@@ -7,6 +7,7 @@ each row's target is turned too, by its own random roll and pitch (no yaw), as a
 carried by hand tilts for every scan.
 
 usage: tilted_set.py LIST OUT_DIR [--tilt 30] [--yaw 90] [--seed 1] [--stride 1] [--both]
+                      [--repeat 1]
 
 LIST is a `pcl_mi_compare -list` file whose scans are KITTI-style .bin files (float32 x y
 z intensity). OUT_DIR gets scans/ (the turned sources, and links to the targets) and
@@ -42,13 +43,15 @@ def main():
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--stride", type=int, default=1, help="every STRIDE-th row only")
     parser.add_argument("--both", action="store_true", help="turn each row's target too")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="each row REPEAT times, each with its own turns (a set of one pair)")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     base = os.path.dirname(os.path.abspath(args.list))
     os.makedirs(os.path.join(args.out, "scans"), exist_ok=True)
     rows = []
     with open(args.list) as f:
-        lines = [line.split() for line in f if line.strip()]
+        lines = [line.split() for line in f if line.strip() for _ in range(args.repeat)]
     def turned_copy(path, turn, name):
         scan = np.fromfile(os.path.join(base, path), dtype=np.float32).reshape(-1, 4)
         turned = scan.copy()
