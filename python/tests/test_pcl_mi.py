@@ -120,6 +120,22 @@ def test_parameters_by_name(pair):
     assert pcl_mi.align(source, target, guess=guess).converged
 
 
+def test_a_tilted_sensor_is_leveled(pair):
+    # The source as a sensor tilted by 25 deg of roll and -20 of pitch would have seen it.
+    source, target, truth = pair
+    roll, pitch = np.radians(25.0), np.radians(-20.0)
+    rx = np.array([[1, 0, 0], [0, np.cos(roll), -np.sin(roll)], [0, np.sin(roll), np.cos(roll)]])
+    ry = np.array([[np.cos(pitch), 0, np.sin(pitch)], [0, 1, 0], [-np.sin(pitch), 0, np.cos(pitch)]])
+    turn = np.eye(4)
+    turn[:3, :3] = ry @ rx
+    tilted = source.copy()
+    tilted[:, :3] = (source[:, :3].astype(np.float64) @ turn[:3, :3].T).astype(np.float32)
+    result = pcl_mi.align(tilted, target)
+    assert result.converged, result.reason
+    assert pose_error(result.transformation, truth @ np.linalg.inv(turn))[0] < 0.08
+    assert pcl_mi.align(source, target, leveling=False).converged
+
+
 @pytest.mark.parametrize("bad,reason", [
     (lambda s, t: pcl_mi.align(s[:, :2], t), "array"),
     (lambda s, t: pcl_mi.align(np.zeros((0, 3), np.float32), t), "no points"),
