@@ -167,7 +167,8 @@ struct SearchParameters {
    * a frame turned level, so that its z-variance feature is taken along up. A sensor
    * carried or mounted tilted is where the simplex alone fails to find roll and pitch;
    * scans taken level never meet the conditions (docs/method.md, "Leveling"). Unlike the
-   * other search fields, a change rebuilds the target. Ignored when a parameter is pinned. */
+   * other search fields, a change rebuilds the target. Off when a parameter is pinned (a
+   * zero simplex step), since pins are meant along the target's own axes. */
   bool leveling = true;
   /** Restarts around the best vertex on the finest searched level, each with that level's
    * steps, alternating in sign: they lift the search out of the local optima the voxel
