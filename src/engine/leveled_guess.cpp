@@ -11,6 +11,18 @@
 namespace pcl_mi {
 namespace core {
 
+bool
+levelingApplies(const Parameters& parameters)
+{
+  return parameters.search.leveling && (parameters.search.simplex_steps.array() != 0.0).all();
+}
+
+bool
+apartBeyondLeveling(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+  return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) > kLevelingDegrees * M_PI / 180.0;
+}
+
 Eigen::Matrix3d
 levelAxes(const Eigen::Vector3d& up)
 {
@@ -35,8 +47,7 @@ levelGuess(const std::optional<Eigen::Vector3d>& source_up,
     return std::nullopt;
   const Eigen::Vector3d& up = *target_up;
   const Eigen::Vector3d moved = guess.topLeftCorner<3, 3>() * *source_up;
-  const double angle = std::acos(std::clamp(moved.dot(up), -1.0, 1.0));
-  if (angle <= kLevelingDegrees * M_PI / 180.0)
+  if (!apartBeyondLeveling(moved, up))
     return std::nullopt;
   Leveling leveling;
   Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();

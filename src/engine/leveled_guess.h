@@ -5,6 +5,8 @@
  */
 #pragma once
 
+#include <pcl_mi/parameters.h>
+
 #include <Eigen/Core>
 
 #include <optional>
@@ -16,6 +18,15 @@ namespace core {
  * agree to about a degree on scans taken level, and the search's default roll and pitch
  * steps cover a few degrees. */
 constexpr double kLevelingDegrees = 5.0;
+
+/** \brief True where \a parameters level (SearchParameters::leveling): leveling on and no
+ * parameter pinned, since pins are meant along the target's own axes. */
+bool
+levelingApplies(const Parameters& parameters);
+
+/** \brief True where the unit vectors \a a and \a b lie more than kLevelingDegrees apart. */
+bool
+apartBeyondLeveling(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
 
 /** \brief Where to search a tilted pair from, in the target frame. */
 struct Leveling {

@@ -28,14 +28,6 @@ constexpr int kRefinementMinimumPoints = 4;
  * of the MI resolution: about the range noise of a spinning LiDAR at 1 m voxels. */
 constexpr double kRefinementNoiseFraction = 0.05;
 
-/** True where \a p levels a tilted target's frame: leveling on and every parameter searched
- * (pinned ones mean the target's own axes). */
-bool
-levelsTargetFrame(const Parameters& p)
-{
-  return p.search.leveling && (p.search.simplex_steps.array() != 0.0).all();
-}
-
 /** Share of a cloud's usable points whose loss as far outliers is worth a warning: a few
  * stray returns are what the rule is for, a second site is not. */
 constexpr double kOutlierWarningShare = 0.01;
@@ -94,7 +86,7 @@ PreparedProblem::resolveParameters()
   const bool backend = old.backend != p.backend ||
                        (p.backend.type == Backend::Auto && sampling);
   target_dirty_ = target_dirty_ || grid || old.refinement != p.refinement || backend ||
-                  levelsTargetFrame(old) != levelsTargetFrame(p);
+                  levelingApplies(old) != levelingApplies(p);
   source_dirty_ = source_dirty_ || grid || sampling;
   parameters_ = p;
 }
@@ -202,7 +194,7 @@ PreparedProblem::prepare(std::string& error)
   if (new_source)
     tasks.emplace_back([this] { buildSourceSamples(); });
   if (new_target)
-    appendTargetTasks(tasks);
+    appendTargetTasks(tasks, true);
   parallelFor(static_cast<int>(tasks.size()), parameters_.num_threads,
               [&](int task) { tasks[static_cast<std::size_t>(task)](); });
   if (new_target)
@@ -361,17 +353,16 @@ PreparedProblem::resetBackendProfile()
 }
 
 void
-PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks)
+PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks, bool estimate_up)
 {
   // The distributions also serve the verification, which runs with or without a refinement.
-  tasks.emplace_back([this] {
+  tasks.emplace_back([this, estimate_up] {
     const SourceSamples cubes =
         makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
     distributions_ = std::make_unique<TargetDistributions>(
         cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * parameters_.grid.resolution);
-    target_up_ = estimateUpDirection(cubes);
-    if (target_up_)
-      *target_up_ = target_axes_ * *target_up_;
+    if (estimate_up)
+      target_up_ = estimateUpDirection(cubes);
   });
   for (int l = 0; l < static_cast<int>(levels_.size()); ++l)
     tasks.emplace_back([this, l] { buildGrid(l); });
@@ -380,9 +371,9 @@ PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks)
 void
 PreparedProblem::levelTarget()
 {
-  if (!levelsTargetFrame(parameters_) || !target_up_ ||
+  if (!levelingApplies(parameters_) || !target_up_ ||
       target_.azimuth_coverage_deg < kNarrowViewDegrees ||
-      std::acos(std::clamp(target_up_->z(), -1.0, 1.0)) <= kLevelingDegrees * M_PI / 180.0)
+      !apartBeyondLeveling(*target_up_, Eigen::Vector3d::UnitZ()))
     return;
   const Eigen::Matrix3d axes = levelAxes(*target_up_);
   PointList turned(target_.points.size());
@@ -395,12 +386,11 @@ PreparedProblem::levelTarget()
     return;
   target_.points = std::move(turned);
   target_axes_ = axes;
-  const std::optional<Eigen::Vector3d> up = target_up_;
+  // Up, in the input frame, stays as estimated there.
   std::vector<std::function<void()>> tasks;
-  appendTargetTasks(tasks);
+  appendTargetTasks(tasks, false);
   parallelFor(static_cast<int>(tasks.size()), parameters_.num_threads,
               [&](int task) { tasks[static_cast<std::size_t>(task)](); });
-  target_up_ = up; // the same direction, estimated once
 }
 
 void

@@ -181,10 +181,10 @@ private:
   backend(int level, int slot);
   void
   buildGrid(int level);
-  /** Appends the tasks that build the target's distributions (and its up direction) and
-   * grids. */
+  /** Appends the tasks that build the target's distributions and grids, and with
+   * \a estimate_up its up direction from the distributions' cubes. */
   void
-  appendTargetTasks(std::vector<std::function<void()>>& tasks);
+  appendTargetTasks(std::vector<std::function<void()>>& tasks, bool estimate_up);
   /** Turns the target local frame level where the parameters ask for it and the target is
    * a tilted 360-degree scan, and rebuilds what was built in the old frame. A target that
    * turned would need more voxels than a grid holds stays as it was. */

@@ -254,10 +254,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   const Eigen::Vector3d pivot = (guess * turned_about.homogeneous()).head<3>();
   // A 360-degree pair whose up directions disagree is searched from the guess leveled, along
   // the target's up: a tilted sensor's roll and pitch are what the simplex finds least well.
-  // Pinned parameters are meant along the target's own axes, so they keep them.
-  const bool none_pinned = (p.search.simplex_steps.array() != 0.0).all();
   const std::optional<core::Leveling> leveled =
-      p.search.leveling && none_pinned && !narrow_view
+      core::levelingApplies(p) && !narrow_view
           ? core::levelGuess(problem.sourceUp(), problem.targetUp(), guess, pivot)
           : std::nullopt;
   const core::SearchSpace space = leveled ? core::SearchSpace(p, leveled->guess, pivot, leveled->axes)
