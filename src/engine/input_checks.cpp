@@ -83,22 +83,7 @@ resolutionError(const PointList& points, double resolution, const char* which)
 std::string
 structureError(const LocalCloud& cloud, double resolution, const char* which)
 {
-  // The points are centred on their centroid, so the covariance is their mean outer
-  // product; summed as scalars, which Eigen's outer-product temporaries made slower.
-  double xx = 0.0, xy = 0.0, xz = 0.0, yy = 0.0, yz = 0.0, zz = 0.0;
-  for (const auto& p : cloud.points) {
-    const double x = p.x(), y = p.y(), z = p.z();
-    xx += x * x;
-    xy += x * y;
-    xz += x * z;
-    yy += y * y;
-    yz += y * z;
-    zz += z * z;
-  }
-  Eigen::Matrix3d covariance;
-  covariance << xx, xy, xz, xy, yy, yz, xz, yz, zz;
-  covariance /= static_cast<double>(std::max<std::size_t>(cloud.points.size(), 1));
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance, Eigen::EigenvaluesOnly);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(cloud.covariance, Eigen::EigenvaluesOnly);
   const Eigen::Vector3d spread = solver.eigenvalues().cwiseMax(0.0).cwiseSqrt(); // ascending
   const double needed = kMinimumSpreadVoxels * resolution;
   if (spread[1] >= needed)

@@ -53,16 +53,46 @@ bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vec
   constexpr std::size_t kCells = 2 * kHalfGapCells + 1;
   std::vector<Cell> cells(3 * kCells);
   const double inv_width = 2.0 / gap;
+  // Scans list their points in sweep order, so one cell usually takes long runs of
+  // consecutive points: each axis gathers its current run in registers and writes it to the
+  // cell when the run ends, instead of every point reading back the store of the one before.
+  struct Run {
+    long cell = -1; // none yet
+    std::size_t count = 0;
+    float min = 0.0f, max = 0.0f;
+  };
+  Run runs[3];
+  const auto flush = [&](int axis) {
+    const Run& r = runs[axis];
+    if (r.count == 0)
+      return;
+    Cell& c = cells[axis * kCells + static_cast<std::size_t>(r.cell + kHalfGapCells)];
+    c.min = c.count ? std::min(c.min, r.min) : r.min;
+    c.max = c.count ? std::max(c.max, r.max) : r.max;
+    c.count += r.count;
+  };
   for (const auto& p : points)
     for (int axis = 0; axis < 3; ++axis) {
-      const double k = std::floor((p[axis] - median[axis]) * inv_width);
-      if (!(std::abs(k) <= kHalfGapCells))
+      // floor(d) within [-kHalfGapCells, kHalfGapCells] exactly when d lies in
+      // [-kHalfGapCells, kHalfGapCells + 1); inside it, truncation corrected below zero is
+      // floor() without the library call that generic x86-64 code makes for it.
+      const float v = p[axis];
+      const double d = (v - median[axis]) * inv_width;
+      if (!(d >= -static_cast<double>(kHalfGapCells) && d < kHalfGapCells + 1.0))
         continue;
-      Cell& c = cells[axis * kCells + static_cast<std::size_t>(k + kHalfGapCells)];
-      c.min = c.count ? std::min(c.min, p[axis]) : p[axis];
-      c.max = c.count ? std::max(c.max, p[axis]) : p[axis];
-      ++c.count;
+      long k = static_cast<long>(d);
+      k -= static_cast<double>(k) > d;
+      Run& r = runs[axis];
+      if (k != r.cell) {
+        flush(axis);
+        r = {k, 0, v, v};
+      }
+      r.min = std::min(r.min, v);
+      r.max = std::max(r.max, v);
+      ++r.count;
     }
+  for (int axis = 0; axis < 3; ++axis)
+    flush(axis);
   for (int axis = 0; axis < 3; ++axis) {
     // The groups in order; the first of equally large ones wins.
     std::size_t best = 0, current = 0;
@@ -102,44 +132,56 @@ makeLocalCloud(const PointList& points, double outlier_gap)
   const auto usable = [](const Eigen::Vector3f& p) {
     return p.allFinite() && !(p.x() == 0.0f && p.y() == 0.0f && p.z() == 0.0f);
   };
-  std::size_t finite = 0, kept_count = 0;
+  std::size_t finite = 0;
+  kept.reserve(points.size());
   for (const auto& p : points) {
     finite += p.allFinite();
-    kept_count += usable(p);
+    if (usable(p))
+      kept.push_back(p);
   }
+  const std::size_t kept_count = kept.size();
   cloud.non_finite = points.size() - finite;
   cloud.no_return = finite - kept_count;
   if (kept_count == 0)
     return cloud;
-  kept.reserve(kept_count);
-  for (const auto& p : points)
-    if (usable(p))
-      kept.push_back(p);
 
   Eigen::Vector3d low, high;
   bulkRanges(kept, outlier_gap, low, high);
 
+  // The ranges' ends are point coordinates, so comparing in float is exact.
+  const Eigen::Array3f low_f = low.cast<float>().array(), high_f = high.cast<float>().array();
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   std::size_t count = 0;
   for (const auto& p : kept) {
-    const Eigen::Vector3d pd = p.cast<double>();
-    if ((pd.array() < low.array()).any() || (pd.array() > high.array()).any())
+    if ((p.array() < low_f).any() || (p.array() > high_f).any())
       continue;
     kept[count++] = p;
-    sum += pd;
+    sum += p.cast<double>();
   }
   cloud.outliers = kept_count - count;
   kept.resize(count);
   // Measured in the input frame, before re-centring, since the sensor sits at its origin.
   cloud.azimuth_coverage_deg = azimuthCoverageDegrees(kept);
   cloud.centroid = sum / static_cast<double>(count);
+  // The scatter of the stored (float) local points, summed as scalars: Eigen's
+  // outer-product temporaries are slower.
   double squared = 0.0;
+  double xx = 0.0, xy = 0.0, xz = 0.0, yy = 0.0, yz = 0.0, zz = 0.0;
   for (auto& p : kept) {
     const Eigen::Vector3d local = p.cast<double>() - cloud.centroid;
     squared += local.squaredNorm();
     p = local.cast<float>();
+    const double x = p.x(), y = p.y(), z = p.z();
+    xx += x * x;
+    xy += x * y;
+    xz += x * z;
+    yy += y * y;
+    yz += y * z;
+    zz += z * z;
   }
   cloud.rms_radius = std::sqrt(squared / static_cast<double>(count));
+  cloud.covariance << xx, xy, xz, xy, yy, yz, xz, yz, zz;
+  cloud.covariance /= static_cast<double>(count);
   return cloud;
 }
 

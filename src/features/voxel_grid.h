@@ -33,6 +33,8 @@ struct LocalCloud {
   std::size_t no_return = 0;                          ///< dropped: exactly (0, 0, 0)
   std::size_t outliers = 0;                           ///< dropped: far outliers
   double rms_radius = 0.0; ///< root mean square distance of the kept points from the centroid
+  /** Covariance of the kept points (local frame), as they are stored. */
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   /** Degrees of azimuth about the input frame's z axis in which the kept points lie (see
    * azimuthCoverageDegrees()). */
   double azimuth_coverage_deg = 0.0;
