@@ -66,6 +66,9 @@ miOptionTable(MiOptionSet set)
       {"-leveling", V::Text, "-leveling on|off",
        "start a 360-degree pair's search leveled where the clouds' up directions\n"
        "disagree by more than 5 deg, as for a sensor carried tilted (default on)"},
+      {"-coarse_nmi", V::Text, "-coarse_nmi on|off",
+       "search the coarsest pyramid level on normalised MI, which the overlap a\n"
+       "far search moves through does not bias (default on; off = MI everywhere)"},
       {"-levels", V::Number, "-levels N",
        format("coarse-to-fine pyramid levels (default %g; 1 = single grid)",
               d.grid.pyramid_levels)},
@@ -179,6 +182,12 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
     if (leveling != "on" && leveling != "off")
       return "-leveling must be on or off, got '" + leveling + "'";
     p.search.leveling = leveling == "on";
+  }
+  if (const char* v = optionValue(argc, argv, "-coarse_nmi")) {
+    const std::string normalized = v;
+    if (normalized != "on" && normalized != "off")
+      return "-coarse_nmi must be on or off, got '" + normalized + "'";
+    p.search.coarse_normalized_mi = normalized == "on";
   }
   readInt(argc, argv, "-levels", p.grid.pyramid_levels);
   readInt(argc, argv, "-subdivision", p.sampling.source_subdivision);

@@ -125,6 +125,8 @@ toSettings(const py::kwargs& kwargs)
       {"second_search_headings",
        [&](const py::handle& v) { p.search.second_search_headings = v.cast<int>(); }},
       {"leveling", [&](const py::handle& v) { p.search.leveling = v.cast<bool>(); }},
+      {"coarse_normalized_mi",
+       [&](const py::handle& v) { p.search.coarse_normalized_mi = v.cast<bool>(); }},
       {"restarts", [&](const py::handle& v) { p.search.restarts = v.cast<int>(); }},
       {"restart_scale", [&](const py::handle& v) { p.search.restart_scale = v.cast<double>(); }},
       {"translation_tolerance",

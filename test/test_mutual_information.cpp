@@ -79,3 +79,33 @@ TEST(MutualInformation, EmptyHistogramIsZero)
   EXPECT_DOUBLE_EQ(pcl_mi::core::mutualInformation(h), 0.0);
   EXPECT_DOUBLE_EQ(pcl_mi::core::mutualInformation(histogram2x2(0, 0, 0, 0)), 0.0);
 }
+
+TEST(NormalizedMutualInformation, SpansOneToTwo)
+{
+  using pcl_mi::core::normalizedMutualInformation;
+  EXPECT_NEAR(normalizedMutualInformation(histogram2x2(1, 1, 1, 1)), 1.0, 1e-12);
+  EXPECT_NEAR(normalizedMutualInformation(histogram2x2(2, 6, 1, 3)), 1.0, 1e-12);
+  EXPECT_NEAR(normalizedMutualInformation(histogram2x2(2, 0, 0, 2)), 2.0, 1e-12);
+  const auto e = pcl_mi::core::entropies(histogram2x2(3, 1, 0, 4));
+  EXPECT_NEAR(normalizedMutualInformation(histogram2x2(3, 1, 0, 4)),
+              (e.target + e.source) / e.joint, 1e-12);
+  // No joint spread (one value in both clouds) and no counts carry no evidence.
+  EXPECT_DOUBLE_EQ(normalizedMutualInformation(histogram2x2(5, 0, 0, 0)), 0.0);
+  EXPECT_DOUBLE_EQ(normalizedMutualInformation(histogram2x2(0, 0, 0, 0)), 0.0);
+  EXPECT_DOUBLE_EQ(normalizedMutualInformation(JointHistogram()), 0.0);
+}
+
+// Why the coarsest level uses it: a pose whose larger overlap brings a third feature value
+// scores more MI despite some disagreement, while normalised MI prefers the pose on which
+// the features agree.
+TEST(NormalizedMutualInformation, RanksAgreementAboveTheVarietyOfALargerOverlap)
+{
+  const JointHistogram agreeing = histogram2x2(50, 0, 0, 50);
+  JointHistogram larger;
+  larger.num_bins = 3;
+  larger.counts = {100, 2, 2, 2, 100, 2, 2, 2, 100};
+  larger.overlap_voxels = 312;
+  EXPECT_GT(pcl_mi::core::mutualInformation(larger), pcl_mi::core::mutualInformation(agreeing));
+  EXPECT_LT(pcl_mi::core::normalizedMutualInformation(larger),
+            pcl_mi::core::normalizedMutualInformation(agreeing));
+}

@@ -305,6 +305,21 @@ public:
     return core_.parameters().search.leveling;
   }
 
+  /** \brief Search the coarsest pyramid level on normalised MI, which the overlap a far
+   * search moves through does not bias (default true;
+   * pcl_mi::SearchParameters::coarse_normalized_mi). */
+  void
+  setCoarseNormalizedMI(bool normalized)
+  {
+    setField("setCoarseNormalizedMI", &Params::search, &Search::coarse_normalized_mi,
+             normalized);
+  }
+  bool
+  getCoarseNormalizedMI() const
+  {
+    return core_.parameters().search.coarse_normalized_mi;
+  }
+
   /** \brief Convergence: every simplex vertex within \a tolerance (the clouds' units) of
    * the best one in each translation parameter; 0 (default) = 0.005 * resolution. */
   void

@@ -170,6 +170,12 @@ struct SearchParameters {
    * other search fields, a change rebuilds the target. Off when a parameter is pinned (a
    * zero simplex step), since pins are meant along the target's own axes. */
   bool leveling = true;
+  /** The coarsest pyramid level, when finer ones follow it, maximises normalised MI
+   * (H(X) + H(Y)) / H(X, Y) instead of MI: the search there travels far, and the overlap
+   * it moves through changes how much MI a pose can score, which normalised MI does not
+   * follow. The finer levels maximise MI (docs/method.md, "Normalised MI on the coarsest
+   * level"). false = MI on every level, as the paper. */
+  bool coarse_normalized_mi = true;
   /** Restarts around the best vertex on the finest searched level, each with that level's
    * steps, alternating in sign: they lift the search out of the local optima the voxel
    * quantisation scatters near the peak. 0..100; each costs at least one iteration. */

@@ -136,6 +136,14 @@ def test_a_tilted_sensor_is_leveled(pair):
     assert pcl_mi.align(source, target, leveling=False).converged
 
 
+def test_the_coarsest_level_can_search_on_mi_alone(pair):
+    # The paper's cost on every level, instead of normalised MI on the coarsest one.
+    source, target, truth = pair
+    result = pcl_mi.align(source, target, coarse_normalized_mi=False)
+    assert result.converged, result.reason
+    assert pose_error(result.transformation, truth)[0] < 0.08
+
+
 @pytest.mark.parametrize("bad,reason", [
     (lambda s, t: pcl_mi.align(s[:, :2], t), "array"),
     (lambda s, t: pcl_mi.align(np.zeros((0, 3), np.float32), t), "no points"),

@@ -93,6 +93,7 @@ SearchParameters::operator==(const SearchParameters& o) const
          narrow_view_position_starts == o.narrow_view_position_starts &&
          narrow_view_tilt_step == o.narrow_view_tilt_step &&
          second_search_headings == o.second_search_headings && leveling == o.leveling &&
+         coarse_normalized_mi == o.coarse_normalized_mi &&
          restarts == o.restarts && restart_scale == o.restart_scale &&
          translation_tolerance == o.translation_tolerance &&
          rotation_tolerance == o.rotation_tolerance;
@@ -113,6 +114,7 @@ Parameters::paper()
   p.search.narrow_view_tilt_step = 0.0;
   p.search.second_search_headings = 0;
   p.search.leveling = false;
+  p.search.coarse_normalized_mi = false;
   p.grid.variance_z_binning.range_quantile = 0.0;
   p.grid.point_count_binning.range_quantile = 0.0;
   return p;

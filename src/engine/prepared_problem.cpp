@@ -268,19 +268,28 @@ PreparedProblem::fromLocal(const LocalPose& local) const
   return pose;
 }
 
+void
+PreparedProblem::jointHistogram(const Eigen::Matrix4d& pose,
+                                JointHistogram& histogram,
+                                int level,
+                                int slot)
+{
+  const LocalPose local = toLocal(pose);
+  if (!local.rotation.allFinite() || !local.translation.allFinite()) {
+    histogram.overlap_voxels = 0;
+    return;
+  }
+  backend(level, slot)
+      .jointHistogram(local.rotation.cast<float>(), local.translation.cast<float>(), histogram);
+}
+
 double
 PreparedProblem::mutualInformation(const Eigen::Matrix4d& pose,
                                    JointHistogram& histogram,
                                    int level,
                                    int slot)
 {
-  const LocalPose local = toLocal(pose);
-  if (!local.rotation.allFinite() || !local.translation.allFinite()) {
-    histogram.overlap_voxels = 0;
-    return 0.0;
-  }
-  backend(level, slot)
-      .jointHistogram(local.rotation.cast<float>(), local.translation.cast<float>(), histogram);
+  jointHistogram(pose, histogram, level, slot);
   return histogram.overlap_voxels == 0 ? 0.0 : core::mutualInformation(histogram);
 }
 

@@ -79,8 +79,13 @@ public:
   int
   firstSearchedLevel() const;
 
-  /** \brief Mutual information at a source-to-target pose in the input frames, on
-   * \a level, computed by evaluator \a slot (0 or 1; the two may run concurrently). */
+  /** \brief Joint histogram at a source-to-target pose in the input frames, on \a level,
+   * computed by evaluator \a slot (0 or 1; the two may run concurrently); no overlap for
+   * a pose that does not map to a finite local one. */
+  void
+  jointHistogram(const Eigen::Matrix4d& pose, JointHistogram& histogram, int level, int slot);
+
+  /** \brief Mutual information of jointHistogram(); 0 without overlap. */
   double
   mutualInformation(const Eigen::Matrix4d& pose,
                     JointHistogram& histogram,

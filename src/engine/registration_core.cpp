@@ -10,6 +10,7 @@
 #include "engine/prepared_problem.h"
 #include "engine/refine_optimum.h"
 #include "engine/search_space.h"
+#include "features/mutual_information.h"
 #include "search/coarse_to_fine.h"
 #include "util/stage_clock.h"
 #include "verify/verification.h"
@@ -37,11 +38,17 @@ constexpr double kSensorOriginRadii = 4.0;
  * has the same default for the same reason). */
 constexpr double kSecondSearchTiltStep = 0.35;
 
-/** The search's cost: minus the MI of the pose a search vector stands for. */
+/** The search's cost: minus the MI of the pose a search vector stands for, or minus its
+ * normalised MI on \a normalized_level (-1: none). */
 class MutualInformationCosts final : public core::LevelCosts {
 public:
-  MutualInformationCosts(core::PreparedProblem& problem, const core::SearchSpace& space)
-  : problem_(problem), space_(space), prefers_batches_(problem.prefersBatches())
+  MutualInformationCosts(core::PreparedProblem& problem,
+                         const core::SearchSpace& space,
+                         int normalized_level)
+  : problem_(problem),
+    space_(space),
+    normalized_level_(normalized_level),
+    prefers_batches_(problem.prefersBatches())
   {}
 
   int
@@ -59,7 +66,9 @@ public:
   double
   cost(int level, int slot, const Eigen::VectorXd& x) override
   {
-    return -problem_.mutualInformation(space_.pose(x), histograms_[slot], level, slot);
+    JointHistogram& histogram = histograms_[slot];
+    problem_.jointHistogram(space_.pose(x), histogram, level, slot);
+    return -score(level, histogram);
   }
 
   void
@@ -74,9 +83,10 @@ public:
     poses.reserve(xs.size());
     for (const Eigen::VectorXd& x : xs)
       poses.push_back(space_.pose(x));
-    problem_.mutualInformation(poses, batch_histograms_[slot], values, level, slot);
-    for (double& v : values)
-      v = -v;
+    std::vector<JointHistogram>& histograms = batch_histograms_[slot];
+    problem_.mutualInformation(poses, histograms, values, level, slot);
+    for (std::size_t i = 0; i < values.size(); ++i)
+      values[i] = level == normalized_level_ ? -score(level, histograms[i]) : -values[i];
   }
 
   bool
@@ -86,8 +96,18 @@ public:
   }
 
 private:
+  double
+  score(int level, const JointHistogram& histogram) const
+  {
+    if (histogram.overlap_voxels == 0)
+      return 0.0;
+    return level == normalized_level_ ? core::normalizedMutualInformation(histogram)
+                                      : core::mutualInformation(histogram);
+  }
+
   core::PreparedProblem& problem_;
   const core::SearchSpace& space_;
+  int normalized_level_;
   bool prefers_batches_;
   // One per slot: the two may run concurrently.
   JointHistogram histograms_[2];
@@ -270,7 +290,10 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
           : 0;
   if (tilts)
     widenTilt(space, p.search.narrow_view_tilt_step, options);
-  MutualInformationCosts costs(problem, space);
+  // Normalised MI on the coarsest level only where finer levels follow it.
+  const int coarsest = problem.levels() - 1;
+  MutualInformationCosts costs(
+      problem, space, p.search.coarse_normalized_mi && coarsest > options.first_level ? coarsest : -1);
   const core::CoarseToFineResult found = core::searchCoarseToFine(costs, options);
   // The first search stage also timed the overlap check at the guess.
   result.stages.insert(result.stages.end(), found.stages.begin(), found.stages.end());

@@ -57,5 +57,15 @@ mutualInformation(const JointHistogram& histogram)
   return std::max(0.0, entropies(histogram).mutualInformation());
 }
 
+double
+normalizedMutualInformation(const JointHistogram& histogram)
+{
+  if (histogram.num_bins <= 0 || histogram.counts.empty())
+    return 0.0;
+  const Entropies e = entropies(histogram);
+  // Rounding can put H(X) + H(Y) a hair below H(X,Y); their ratio is >= 1 by definition.
+  return e.joint > 0.0 ? std::max(1.0, (e.target + e.source) / e.joint) : 0.0;
+}
+
 } // namespace core
 } // namespace pcl_mi

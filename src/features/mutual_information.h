@@ -39,5 +39,12 @@ entropies(const JointHistogram& histogram);
 double
 mutualInformation(const JointHistogram& histogram);
 
+/** \brief Studholme's normalised mutual information (H(X) + H(Y)) / H(X,Y) of
+ * \a histogram: 1 for independent features, 2 for features that fix each other, and
+ * unchanged when the overlap grows by voxels distributed as the rest. 0 when the histogram
+ * is empty or holds a single joint value. */
+double
+normalizedMutualInformation(const JointHistogram& histogram);
+
 } // namespace core
 } // namespace pcl_mi
