@@ -59,6 +59,10 @@ miOptionTable(MiOptionSet set)
        format("roll and pitch steps used instead, when larger, for a narrow field\n"
               "of view, turning the source about its sensor (default %g; 0 = off)",
               d.search.narrow_view_tilt_step * 180.0 / M_PI)},
+      {"-narrow_view_yaw", V::Number, "-narrow_view_yaw DEG",
+       format("two more starts, turned by +-DEG of yaw, for a narrow field of view\n"
+              "(default %g; 0 = off)",
+              d.search.narrow_view_yaw_start * 180.0 / M_PI)},
       {"-second_search", V::Number, "-second_search N",
        format("headings of the wider second search a 360-degree pair gets when its\n"
               "result is not trusted (default %g; 0 = none)",
@@ -176,6 +180,8 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
   readInt(argc, argv, "-narrow_view_starts", p.search.narrow_view_position_starts);
   if (const char* v = optionValue(argc, argv, "-narrow_view_tilt"))
     p.search.narrow_view_tilt_step = std::atof(v) * M_PI / 180.0;
+  if (const char* v = optionValue(argc, argv, "-narrow_view_yaw"))
+    p.search.narrow_view_yaw_start = std::atof(v) * M_PI / 180.0;
   readInt(argc, argv, "-second_search", p.search.second_search_headings);
   if (const char* v = optionValue(argc, argv, "-leveling")) {
     const std::string leveling = v;

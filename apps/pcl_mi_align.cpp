@@ -300,6 +300,11 @@ run(int argc, char** argv)
                     ? " (narrow field of view)"
                     : "");
   }
+  if (reg.getLastResult().yaw_starts > 0) {
+    print_info("Yaw starts: ");
+    print_value("%d (narrow field of view, +-%.0f deg)\n", reg.getLastResult().yaw_starts,
+                parameters.search.narrow_view_yaw_start * 180.0 / M_PI);
+  }
   if (reg.getLastResult().leveled) {
     print_info("Leveled: ");
     print_value("yes (the search started with the clouds' up directions made to agree)\n");

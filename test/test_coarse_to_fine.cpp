@@ -139,6 +139,26 @@ TEST(CoarseToFine, HeadingStartsReachAHeadingBehind)
   EXPECT_NEAR(std::abs(std::remainder(several.best.x[2], 2.0 * M_PI)), M_PI, 0.01);
 }
 
+TEST(CoarseToFine, YawStartsReachANarrowWellBesideTheGuess)
+{
+  // A narrow well at yaw +0.5 rad, which the simplex from the guess (yaw step 0.8) steps
+  // over, on a bowl whose floor is at the guess.
+  auto f = [](int, const Eigen::VectorXd& x) {
+    const double xy = x[0] * x[0] + x[1] * x[1];
+    const double well = (x[2] - 0.5) / 0.05;
+    return 1.0 + xy + x[2] * x[2] - 2.0 * std::exp(-well * well - xy);
+  };
+  CoarseToFineOptions o = planarOptions();
+  SyntheticCosts plain(2, f);
+  const auto from_guess = pcl_mi::core::searchCoarseToFine(plain, o);
+  o.yaw_starts = {0.5, -0.5};
+  SyntheticCosts turned(2, f);
+  const auto with_turns = pcl_mi::core::searchCoarseToFine(turned, o);
+  EXPECT_GT(from_guess.best.value, 0.9); // the bowl's floor
+  EXPECT_LT(with_turns.best.value, 0.0);
+  EXPECT_NEAR(with_turns.best.x[2], 0.5, 0.02);
+}
+
 TEST(CoarseToFine, TheBudgetCapsEveryIterationAndThreadsDoNotChangeTheResult)
 {
   const Eigen::Vector3d centre(1.0, 2.0, 0.1);

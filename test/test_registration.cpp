@@ -285,6 +285,24 @@ TEST(Registration, AnUntrustedResultGetsAWiderSecondSearch)
   EXPECT_EQ(pcl_mi::Parameters::paper().search.second_search_headings, 0);
 }
 
+namespace {
+
+/** The points of \a cloud a forward-looking sensor with a 70 deg field of view at its
+ * origin would see, moved by \a offset along x. */
+Cloud::Ptr
+cutToView(const Cloud::Ptr& cloud, float offset = 0.0f)
+{
+  Cloud::Ptr cut(new Cloud);
+  for (auto point : *cloud)
+    if (std::abs(std::atan2(point.y, point.x)) <= 35.0 * M_PI / 180.0) {
+      point.x += offset;
+      cut->push_back(point);
+    }
+  return cut;
+}
+
+} // namespace
+
 TEST(Registration, PositionStartsAlignANarrowFieldOfView)
 {
   // The bundled pair as a forward-looking sensor with a 70 deg field of view would see it.
@@ -292,13 +310,6 @@ TEST(Registration, PositionStartsAlignANarrowFieldOfView)
   // and 5 m off in the two directions); starts around the guess find the scene's optimum.
   // The defaults add them by themselves for such clouds; asked for explicitly, they work
   // the same with the automatic ones off.
-  auto cutToView = [](const Cloud::Ptr& cloud) {
-    Cloud::Ptr cut(new Cloud);
-    for (const auto& point : *cloud)
-      if (std::abs(std::atan2(point.y, point.x)) <= 35.0 * M_PI / 180.0)
-        cut->push_back(point);
-    return cut;
-  };
   const Cloud::Ptr later = cutToView(test_data::loadScan("00", 9));
   const Cloud::Ptr earlier = cutToView(test_data::loadScan("00", 0));
   ASSERT_LT(later->size(), 30000u);
@@ -338,15 +349,6 @@ TEST(Registration, NarrowViewTurnsAboutTheSensorOnlyWhereItIsNear)
   // The same 70 deg view: turned about its sensor with wider tilt steps by default, about
   // its centroid with the tilt step off, and about its centroid where the clouds lie far
   // from their frame's origin (a map frame), which cannot be the sensor.
-  auto cutToView = [](const Cloud::Ptr& cloud, float offset) {
-    Cloud::Ptr cut(new Cloud);
-    for (auto point : *cloud)
-      if (std::abs(std::atan2(point.y, point.x)) <= 35.0 * M_PI / 180.0) {
-        point.x += offset;
-        cut->push_back(point);
-      }
-    return cut;
-  };
   const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
   for (const float offset : {0.0f, 2000.0f})
     for (const double tilt : {0.35, 0.0}) {
@@ -375,6 +377,40 @@ TEST(Registration, NarrowViewTurnsAboutTheSensorOnlyWhereItIsNear)
             }())
                 .validate()
                 .find("narrow-view tilt step"),
+            std::string::npos);
+}
+
+// The yaw starts are a narrow view's: the cut pair searches from two more starts, the
+// full 360-degree scans do not, and the setting is validated like the tilt step.
+TEST(Registration, ANarrowViewAlsoStartsTurnedInYaw)
+{
+  const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
+  for (const double yaw : {0.5, 0.0}) {
+    SCOPED_TRACE(yaw);
+    pcl::MutualInformationRegistration<pcl::PointXYZ> narrow, full;
+    narrow.setNarrowViewYawStart(yaw);
+    full.setNarrowViewYawStart(yaw);
+    EXPECT_EQ(narrow.getNarrowViewYawStart(), yaw);
+    narrow.setInputSource(cutToView(test_data::loadScan("00", 9)));
+    narrow.setInputTarget(cutToView(test_data::loadScan("00", 0)));
+    full.setInputSource(test_data::loadScan("00", 9));
+    full.setInputTarget(test_data::loadScan("00", 0));
+    Cloud aligned;
+    narrow.align(aligned);
+    full.align(aligned);
+    EXPECT_POSE_NEAR(narrow.getFinalTransformation().cast<double>(), reference);
+    EXPECT_POSE_NEAR(full.getFinalTransformation().cast<double>(), reference);
+    EXPECT_EQ(narrow.getLastResult().yaw_starts, yaw > 0.0 ? 2 : 0);
+    EXPECT_EQ(full.getLastResult().yaw_starts, 0);
+  }
+  EXPECT_EQ(pcl_mi::Parameters::paper().search.narrow_view_yaw_start, 0.0);
+  EXPECT_NE(pcl_mi::Parameters([] {
+              pcl_mi::Parameters p;
+              p.search.narrow_view_yaw_start = 4.0;
+              return p;
+            }())
+                .validate()
+                .find("narrow-view yaw start"),
             std::string::npos);
 }
 

@@ -274,6 +274,20 @@ public:
     return core_.parameters().search.narrow_view_tilt_step;
   }
 
+  /** \brief Where either cloud has a narrow field of view, two more starts of the coarsest
+   * level, turned from the guess by plus and minus this yaw (default 0.5 rad; 0 = none;
+   * pcl_mi::SearchParameters::narrow_view_yaw_start). */
+  void
+  setNarrowViewYawStart(double yaw)
+  {
+    setField("setNarrowViewYawStart", &Params::search, &Search::narrow_view_yaw_start, yaw);
+  }
+  double
+  getNarrowViewYawStart() const
+  {
+    return core_.parameters().search.narrow_view_yaw_start;
+  }
+
   /** \brief Headings of the second, wider search that a 360-degree pair whose result the
    * verification does not trust gets (default 4; 0 = none;
    * pcl_mi::SearchParameters::second_search_headings). getLastResult().second_search says

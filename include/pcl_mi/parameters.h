@@ -150,6 +150,13 @@ struct SearchParameters {
    * turning its cloud about its centroid, several metres ahead, would move the sensor
    * sideways (docs/method.md, "Defaults derived from the data"). */
   double narrow_view_tilt_step = 0.35;
+  /** For clouds with a narrow field of view (as for narrow_view_position_starts; 0 =
+   * never): two more starts of the coarsest level, at the guess's position turned by plus
+   * and minus this yaw (rad). A handheld sensor with a 70-degree view turns by tens of
+   * degrees between scans, and a turn changes most of what it sees, so the simplex from the
+   * guess alone often settles on the part of the scene the two views share least well
+   * (docs/benchmarks.md, "Narrow views: starts turned in yaw"). */
+  double narrow_view_yaw_start = 0.5;
   /** For clouds without a narrow field of view, when the verification does not trust the
    * result: a second, wider search from this many headings spread over 360 degrees, with
    * roll and pitch steps of at least 0.35 rad (0 = none). Of its optima and the first

@@ -147,6 +147,9 @@ struct AlignmentResult {
   /** Further starts around the guess the coarsest level used: position_starts, or
    * narrow_view_position_starts for a narrow field of view (0 when x and y are pinned). */
   int position_starts = 0;
+  /** Further starts at the guess's position turned in yaw: 2 for a narrow field of view
+   * (SearchParameters::narrow_view_yaw_start), else 0. */
+  int yaw_starts = 0;
   /** The search turned the source about its sensor (the origin of its frame) with wider
    * roll and pitch steps, as SearchParameters::narrow_view_tilt_step says for a narrow field
    * of view; false where it turned it about its centroid. */

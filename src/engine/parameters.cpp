@@ -92,6 +92,7 @@ SearchParameters::operator==(const SearchParameters& o) const
          heading_starts == o.heading_starts && position_starts == o.position_starts &&
          narrow_view_position_starts == o.narrow_view_position_starts &&
          narrow_view_tilt_step == o.narrow_view_tilt_step &&
+         narrow_view_yaw_start == o.narrow_view_yaw_start &&
          second_search_headings == o.second_search_headings && leveling == o.leveling &&
          coarse_normalized_mi == o.coarse_normalized_mi &&
          restarts == o.restarts && restart_scale == o.restart_scale &&
@@ -112,6 +113,7 @@ Parameters::paper()
   p.refinement.method = Refinement::None;
   p.search.narrow_view_position_starts = 0;
   p.search.narrow_view_tilt_step = 0.0;
+  p.search.narrow_view_yaw_start = 0.0;
   p.search.second_search_headings = 0;
   p.search.leveling = false;
   p.search.coarse_normalized_mi = false;
@@ -157,6 +159,8 @@ Parameters::validate() const
     s << "narrow-view position starts must be 0..360, got " << f.narrow_view_position_starts;
   else if (!(f.narrow_view_tilt_step >= 0.0 && f.narrow_view_tilt_step <= M_PI))
     s << "the narrow-view tilt step must be 0..pi rad, got " << f.narrow_view_tilt_step;
+  else if (!(f.narrow_view_yaw_start >= 0.0 && f.narrow_view_yaw_start <= M_PI))
+    s << "the narrow-view yaw start must be 0..pi rad, got " << f.narrow_view_yaw_start;
   else if (f.second_search_headings < 0 || f.second_search_headings > 360)
     s << "second-search headings must be 0..360, got " << f.second_search_headings;
   else if (g.pyramid_levels < 1 || g.pyramid_levels > 8)

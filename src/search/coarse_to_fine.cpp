@@ -131,7 +131,8 @@ public:
     const Eigen::VectorXd origin = Eigen::VectorXd::Zero(n);
     const int headings = o_.yaw_index >= 0 ? o_.heading_starts : 1;
     const int positions = o_.position_starts;
-    const int starts = headings + positions;
+    const int turns = o_.yaw_index >= 0 ? static_cast<int>(o_.yaw_starts.size()) : 0;
+    const int starts = headings + positions + turns;
     // Each start gets the same share of the budget; the mirrored simplex (all steps
     // negated) makes the pair symmetric about the start, and the fixed shares make the
     // result independent of whether the pair runs concurrently.
@@ -143,7 +144,9 @@ public:
       Eigen::VectorXd start = origin;
       if (k > 0 && k < headings) // k * 360 / headings degrees, in (-180, 180]
         start[o_.yaw_index] = std::remainder(2.0 * M_PI * k / headings, 2.0 * M_PI);
-      if (k >= headings) {
+      if (k >= headings + positions)
+        start[o_.yaw_index] = o_.yaw_starts[static_cast<std::size_t>(k - headings - positions)];
+      else if (k >= headings) {
         const double angle = 2.0 * M_PI * (k - headings) / positions;
         if (o_.x_index >= 0)
           start[o_.x_index] = 0.5 * o_.steps[o_.x_index] * std::cos(angle);

@@ -63,6 +63,9 @@ struct CoarseToFineOptions {
   Eigen::Index x_index = -1, y_index = -1, yaw_index = -1;
   int heading_starts = 1;   ///< headings spread over 360 degrees (only with a yaw index)
   int position_starts = 0;  ///< starts on the ellipse of half the x and y steps
+  /** Further starts at the guess's position, at these yaw offsets (rad) from it (only with
+   * a yaw index). */
+  std::vector<double> yaw_starts;
   bool symmetric_start = true;
   int first_level = 0;      ///< finest level searched (levels below are skipped)
   int restarts = 0;         ///< restarts on the finest searched level
