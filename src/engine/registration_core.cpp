@@ -115,8 +115,9 @@ private:
 };
 
 /** Refines the search vector \a x's pose and gives it the verdict, into \a result (whose
- * search_converged is set). */
-void
+ * search_converged is set). Returns the normalised MI on the finest grid at the final pose,
+ * by which candidates of different overlaps compare (keepTheFinestGridsChoice()). */
+double
 finishCandidate(core::PreparedProblem& problem,
                 const core::SearchSpace& space,
                 const Eigen::VectorXd& x,
@@ -140,6 +141,8 @@ finishCandidate(core::PreparedProblem& problem,
   // true pose; the target's surfaces do.
   core::StageClock verification_clock;
   result.mutual_information = problem.mutualInformation(result.transformation, scratch);
+  const double finest_normalized_mi =
+      scratch.overlap_voxels == 0 ? 0.0 : core::normalizedMutualInformation(scratch);
   const core::LocalPose at = problem.toLocal(result.transformation);
   result.verification = core::verifyPose(
       problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
@@ -147,6 +150,7 @@ finishCandidate(core::PreparedProblem& problem,
       p.num_threads);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
+  return finest_normalized_mi;
 }
 
 /** Raises the roll and pitch steps of \a options to at least \a step, keeping their signs;
@@ -163,20 +167,24 @@ widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions
 
 /** Refines and verifies each of \a optima (search vectors with their searches' convergence)
  * and puts the one with the highest normalised MI on the finest grid into \a result where
- * that is higher than the result's own; counts them in result.runners_up_checked. */
+ * that is higher than the result's own, \a finest_normalized_mi (updated); counts them in
+ * result.runners_up_checked. Normalised MI, as on the coarsest level, because the
+ * candidates' overlaps differ. */
 void
 keepTheFinestGridsChoice(core::PreparedProblem& problem,
                          const core::SearchSpace& space,
                          const std::vector<core::NelderMeadResult>& optima,
                          JointHistogram& scratch,
-                         AlignmentResult& result)
+                         AlignmentResult& result,
+                         double& finest_normalized_mi)
 {
   for (const core::NelderMeadResult& optimum : optima) {
     AlignmentResult other; // its stages are the caller's stage's
     other.search_converged = optimum.converged;
-    finishCandidate(problem, space, optimum.x, scratch, other);
+    const double other_normalized_mi = finishCandidate(problem, space, optimum.x, scratch, other);
     ++result.runners_up_checked;
-    if (other.verification.normalized_mi > result.verification.normalized_mi) {
+    if (other_normalized_mi > finest_normalized_mi) {
+      finest_normalized_mi = other_normalized_mi;
       result.transformation = other.transformation;
       result.converged = other.converged;
       result.search_converged = other.search_converged;
@@ -306,7 +314,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
   result.search_converged = found.best.converged;
-  finishCandidate(problem, space, found.best.x, impl_->scratch, result);
+  double finest_normalized_mi = finishCandidate(problem, space, found.best.x, impl_->scratch, result);
 
   // A second opinion: where the verification does not trust the search's best optimum, the
   // runners-up are refined and verified too, and the one that agrees best with the target
@@ -314,7 +322,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   // on often put a wrong optimum first where the finest grid does not (docs/method.md).
   if (!result.verification.reason.empty() && !found.alternatives.empty()) {
     core::StageClock clock;
-    keepTheFinestGridsChoice(problem, space, found.alternatives, impl_->scratch, result);
+    keepTheFinestGridsChoice(problem, space, found.alternatives, impl_->scratch, result,
+                             finest_normalized_mi);
     clock.end(result.stages, "runners-up", result.runners_up_checked);
   }
 
@@ -335,7 +344,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     result.evaluations += again.evaluations;
     std::vector<core::NelderMeadResult> optima{again.best};
     optima.insert(optima.end(), again.alternatives.begin(), again.alternatives.end());
-    keepTheFinestGridsChoice(problem, space, optima, impl_->scratch, result);
+    keepTheFinestGridsChoice(problem, space, optima, impl_->scratch, result, finest_normalized_mi);
     clock.end(result.stages, "second search", again.evaluations);
   }
   return result;
