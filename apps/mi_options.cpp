@@ -148,6 +148,20 @@ readDouble(int argc, char** argv, const char* name, double& out)
     out = std::atof(v);
 }
 
+/** Reads an on|off option into \a out when present; an error for any other value. */
+std::string
+readOnOff(int argc, char** argv, const char* name, bool& out)
+{
+  const char* v = optionValue(argc, argv, name);
+  if (!v)
+    return {};
+  const std::string value = v;
+  if (value != "on" && value != "off")
+    return std::string(name) + " must be on or off, got '" + value + "'";
+  out = value == "on";
+  return {};
+}
+
 std::vector<double>
 readNumbers(const char* value)
 {
@@ -183,28 +197,19 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
   if (const char* v = optionValue(argc, argv, "-narrow_view_yaw"))
     p.search.narrow_view_yaw_start = std::atof(v) * M_PI / 180.0;
   readInt(argc, argv, "-second_search", p.search.second_search_headings);
-  if (const char* v = optionValue(argc, argv, "-leveling")) {
-    const std::string leveling = v;
-    if (leveling != "on" && leveling != "off")
-      return "-leveling must be on or off, got '" + leveling + "'";
-    p.search.leveling = leveling == "on";
-  }
-  if (const char* v = optionValue(argc, argv, "-coarse_nmi")) {
-    const std::string normalized = v;
-    if (normalized != "on" && normalized != "off")
-      return "-coarse_nmi must be on or off, got '" + normalized + "'";
-    p.search.coarse_normalized_mi = normalized == "on";
-  }
+  std::string error = readOnOff(argc, argv, "-leveling", p.search.leveling);
+  if (error.empty())
+    error = readOnOff(argc, argv, "-coarse_nmi", p.search.coarse_normalized_mi);
+  if (!error.empty())
+    return error;
   readInt(argc, argv, "-levels", p.grid.pyramid_levels);
   readInt(argc, argv, "-subdivision", p.sampling.source_subdivision);
   readInt(argc, argv, "-restarts", p.search.restarts);
-  if (const char* v = optionValue(argc, argv, "-refinement")) {
-    const std::string refinement = v;
-    if (refinement != "on" && refinement != "off")
-      return "-refinement must be on or off, got '" + refinement + "'";
-    p.refinement.method =
-        refinement == "on" ? Refinement::PointToDistribution : Refinement::None;
-  }
+  bool refine = p.refinement.method != Refinement::None;
+  error = readOnOff(argc, argv, "-refinement", refine);
+  if (!error.empty())
+    return error;
+  p.refinement.method = refine ? Refinement::PointToDistribution : Refinement::None;
   readDouble(argc, argv, "-refinement_resolution", p.refinement.resolution);
   if (const char* v = optionValue(argc, argv, "-backend"))
     if (!parseBackend(v, p.backend.type))

@@ -370,14 +370,9 @@ TEST(Registration, NarrowViewTurnsAboutTheSensorOnlyWhereItIsNear)
     p.search.narrow_view_tilt_step = -0.1;
     return p;
   }()));
-  EXPECT_NE(pcl_mi::Parameters([] {
-              pcl_mi::Parameters p;
-              p.search.narrow_view_tilt_step = 4.0;
-              return p;
-            }())
-                .validate()
-                .find("narrow-view tilt step"),
-            std::string::npos);
+  pcl_mi::Parameters invalid;
+  invalid.search.narrow_view_tilt_step = 4.0;
+  EXPECT_NE(invalid.validate().find("narrow-view tilt step"), std::string::npos);
 }
 
 // The yaw starts are a narrow view's: the cut pair searches from two more starts, the
@@ -404,14 +399,9 @@ TEST(Registration, ANarrowViewAlsoStartsTurnedInYaw)
     EXPECT_EQ(full.getLastResult().yaw_starts, 0);
   }
   EXPECT_EQ(pcl_mi::Parameters::paper().search.narrow_view_yaw_start, 0.0);
-  EXPECT_NE(pcl_mi::Parameters([] {
-              pcl_mi::Parameters p;
-              p.search.narrow_view_yaw_start = 4.0;
-              return p;
-            }())
-                .validate()
-                .find("narrow-view yaw start"),
-            std::string::npos);
+  pcl_mi::Parameters invalid;
+  invalid.search.narrow_view_yaw_start = 4.0;
+  EXPECT_NE(invalid.validate().find("narrow-view yaw start"), std::string::npos);
 }
 
 TEST(Registration, NoReturnMarkersDoNotMakeAnOptimum)

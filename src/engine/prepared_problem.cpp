@@ -294,13 +294,12 @@ PreparedProblem::mutualInformation(const Eigen::Matrix4d& pose,
 }
 
 void
-PreparedProblem::mutualInformation(const std::vector<Eigen::Matrix4d>& poses,
-                                   std::vector<JointHistogram>& histograms,
-                                   std::vector<double>& values,
-                                   int level,
-                                   int slot)
+PreparedProblem::jointHistograms(const std::vector<Eigen::Matrix4d>& poses,
+                                 std::vector<JointHistogram>& histograms,
+                                 int level,
+                                 int slot)
 {
-  // Poses that do not map to finite local ones score 0 without reaching the backend.
+  // Poses that do not map to finite local ones get no overlap without reaching the backend.
   std::vector<Eigen::Matrix3f> rotations;
   std::vector<Eigen::Vector3f> translations;
   std::vector<std::size_t> scored;
@@ -315,14 +314,10 @@ PreparedProblem::mutualInformation(const std::vector<Eigen::Matrix4d>& poses,
   std::vector<JointHistogram> computed;
   backend(level, slot).jointHistograms(rotations, translations, computed);
   histograms.resize(poses.size());
-  values.assign(poses.size(), 0.0);
   for (JointHistogram& h : histograms)
     h.overlap_voxels = 0;
-  for (std::size_t k = 0; k < scored.size(); ++k) {
-    JointHistogram& h = histograms[scored[k]];
-    h = std::move(computed[k]);
-    values[scored[k]] = h.overlap_voxels == 0 ? 0.0 : core::mutualInformation(h);
-  }
+  for (std::size_t k = 0; k < scored.size(); ++k)
+    histograms[scored[k]] = std::move(computed[k]);
 }
 
 bool

@@ -92,14 +92,13 @@ public:
                     int level = 0,
                     int slot = 0);
 
-  /** \brief mutualInformation() of each of \a poses into \a values, with \a histograms
-   * resized to match: one batch for the level's backend. */
+  /** \brief jointHistogram() of each of \a poses into \a histograms, resized to match:
+   * one batch for the level's backend. */
   void
-  mutualInformation(const std::vector<Eigen::Matrix4d>& poses,
-                    std::vector<JointHistogram>& histograms,
-                    std::vector<double>& values,
-                    int level,
-                    int slot);
+  jointHistograms(const std::vector<Eigen::Matrix4d>& poses,
+                  std::vector<JointHistogram>& histograms,
+                  int level,
+                  int slot);
 
   /** \brief True when the backends of the levels score a batch of poses in about the time
    * of one (ScoringBackend::prefersBatches()). */

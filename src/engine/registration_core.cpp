@@ -84,9 +84,10 @@ public:
     for (const Eigen::VectorXd& x : xs)
       poses.push_back(space_.pose(x));
     std::vector<JointHistogram>& histograms = batch_histograms_[slot];
-    problem_.mutualInformation(poses, histograms, values, level, slot);
-    for (std::size_t i = 0; i < values.size(); ++i)
-      values[i] = level == normalized_level_ ? -score(level, histograms[i]) : -values[i];
+    problem_.jointHistograms(poses, histograms, level, slot);
+    values.resize(histograms.size());
+    for (std::size_t i = 0; i < histograms.size(); ++i)
+      values[i] = -score(level, histograms[i]);
   }
 
   bool
