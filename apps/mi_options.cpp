@@ -85,6 +85,10 @@ miOptionTable(MiOptionSet set)
        "refine the MI optimum on the target's distributions (default on)"},
       {"-refinement_resolution", V::Number, "-refinement_resolution R",
        "cube edge of the refinement (default 0: 0.7 * resolution)"},
+      {"-narrow_view_stages", V::Number, "-narrow_view_stages N",
+       format("coarser refinement stages (cubes 2, 4, ... times larger) before the\n"
+              "finest, for a narrow field of view (default %g; 0 = none)",
+              d.refinement.narrow_view_stages)},
       {"-backend", V::Text, "-backend cpu|opencl|auto",
        "where the cost evaluations run (default cpu; auto: OpenCL on a GPU\n"
        "when every point is evaluated, else cpu)"},
@@ -211,6 +215,7 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
     return error;
   p.refinement.method = refine ? Refinement::PointToDistribution : Refinement::None;
   readDouble(argc, argv, "-refinement_resolution", p.refinement.resolution);
+  readInt(argc, argv, "-narrow_view_stages", p.refinement.narrow_view_stages);
   if (const char* v = optionValue(argc, argv, "-backend"))
     if (!parseBackend(v, p.backend.type))
       return std::string("-backend must be cpu, opencl or auto, got '") + v + "'";

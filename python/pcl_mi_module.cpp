@@ -145,6 +145,8 @@ toSettings(const py::kwargs& kwargs)
        [&](const py::handle& v) { p.refinement.resolution = v.cast<double>(); }},
       {"refinement_max_iterations",
        [&](const py::handle& v) { p.refinement.max_iterations = v.cast<int>(); }},
+      {"refinement_narrow_view_stages",
+       [&](const py::handle& v) { p.refinement.narrow_view_stages = v.cast<int>(); }},
       {"backend",
        [&](const py::handle& v) {
          if (!pcl_mi::parseBackend(text(v), p.backend.type))

@@ -191,7 +191,7 @@ BM_Refinement(benchmark::State& state)
   const Eigen::Vector3d pivot = (guess * problem.source().centroid.homogeneous()).head<3>();
   const pcl_mi::core::SearchSpace space(problem.parameters(), guess, pivot);
   for (auto _ : state)
-    benchmark::DoNotOptimize(pcl_mi::core::refineOptimum(problem, space, guess));
+    benchmark::DoNotOptimize(pcl_mi::core::refineOptimum(problem, space, guess, 0));
 }
 BENCHMARK(BM_Refinement)->Unit(benchmark::kMillisecond);
 

@@ -704,7 +704,8 @@ loadBundledPair(const std::string& set,
 // with MI on every level, the coarser grids rank a wrong optimum first, which the
 // verification does not trust, and of the search's runners-up the finest grid picks the
 // right one. (With the defaults' normalised MI on the coarsest level, no optimum of this
-// flat pair is trusted and none of them is within 0.1 m.)
+// flat pair is trusted. The refinement's coarser stages, which would mask the mechanism, are
+// off.)
 TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
 {
   Cloud::Ptr source, target;
@@ -712,6 +713,7 @@ TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
   ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
   reg.setCoarseNormalizedMI(false);
+  reg.setNarrowViewRefinementStages(0);
   reg.setInputSource(source);
   reg.setInputTarget(target);
   Cloud aligned;
@@ -739,7 +741,9 @@ TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
 // The same Livox walk, 6.0 m and 32 deg between the scans, in both directions: searched on
 // MI alone, the coarsest grid (2 m voxels over 4-5 thousand points) scores a wrong pose with
 // more overlap above the right one, and both directions end 0.6-1.9 m off. Normalised MI,
-// which the overlap does not lift, finds it, and the verification trusts it.
+// which the overlap does not lift, finds it, and the verification trusts it. (The search is
+// the subject: the refinement's coarser stages, which pull in the MI-only optima too, are
+// off.)
 TEST(Registration, ALivoxPairIsFoundOnTheCoarsestLevelsNormalisedMI)
 {
   Cloud::Ptr source, target;
@@ -750,6 +754,7 @@ TEST(Registration, ALivoxPairIsFoundOnTheCoarsestLevelsNormalisedMI)
     const Eigen::Matrix4d truth = forward ? reference : Eigen::Matrix4d(reference.inverse());
     pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
     EXPECT_TRUE(reg.getCoarseNormalizedMI());
+    reg.setNarrowViewRefinementStages(0);
     reg.setInputSource(forward ? source : target);
     reg.setInputTarget(forward ? target : source);
     Cloud aligned;
@@ -766,6 +771,49 @@ TEST(Registration, ALivoxPairIsFoundOnTheCoarsestLevelsNormalisedMI)
     EXPECT_GT(mi_only.translation, 0.5);
   }
   EXPECT_FALSE(pcl_mi::Parameters::paper().search.coarse_normalized_mi);
+}
+
+// The first bundled Livox pair (3.4 m, 38 deg), source the later scan. The resolution is
+// derived as 0.5 m, so the search ends on 1 m voxels and its optimum lies about 0.3 m off:
+// beyond the reach of the refinement's 0.35 m cubes alone, within that of the defaults'
+// two coarser stages (0.7 and 1.4 m cubes). A 360-degree scan keeps the single stage.
+TEST(Registration, ANarrowViewsRefinementReachesFurtherInCoarserStages)
+{
+  Cloud::Ptr source, target;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference));
+  for (const int stages : {2, 0}) {
+    SCOPED_TRACE(stages);
+    pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+    reg.setNarrowViewRefinementStages(stages);
+    EXPECT_EQ(reg.getNarrowViewRefinementStages(), stages);
+    reg.setInputSource(source);
+    reg.setInputTarget(target);
+    Cloud aligned;
+    reg.align(aligned);
+    const auto error =
+        pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), reference);
+    if (stages > 0) {
+      EXPECT_EQ(reg.getLastResult().refinement_stages, 3);
+      EXPECT_LT(error.translation, 0.1);
+      EXPECT_LT(error.rotation_deg, 0.5);
+    }
+    else {
+      EXPECT_LE(reg.getLastResult().refinement_stages, 1);
+      EXPECT_GT(error.translation, 0.2);
+    }
+  }
+
+  pcl::MutualInformationRegistration<pcl::PointXYZ> full;
+  full.setInputSource(test_data::loadScan("00", 9));
+  full.setInputTarget(test_data::loadScan("00", 0));
+  Cloud aligned;
+  full.align(aligned);
+  EXPECT_EQ(full.getLastResult().refinement_stages, 1);
+  EXPECT_EQ(pcl_mi::Parameters::paper().refinement.narrow_view_stages, 0);
+  pcl_mi::Parameters invalid;
+  invalid.refinement.narrow_view_stages = -1;
+  EXPECT_NE(invalid.validate().find("narrow-view refinement stages"), std::string::npos);
 }
 
 // Two other sensors with the defaults: a 128-beam Ouster-class LiDAR and an OS1-64 mounted

@@ -438,6 +438,21 @@ public:
     return core_.effectiveParameters().effectiveRefinementResolution();
   }
 
+  /** \brief Where either cloud has a narrow field of view, this many coarser refinement
+   * stages before the finest, on cubes 2, 4, ... times larger (default 2; 0 = none;
+   * pcl_mi::RefinementParameters::narrow_view_stages). */
+  void
+  setNarrowViewRefinementStages(int stages)
+  {
+    setField("setNarrowViewRefinementStages", &Params::refinement, &Refine::narrow_view_stages,
+             stages);
+  }
+  int
+  getNarrowViewRefinementStages() const
+  {
+    return core_.parameters().refinement.narrow_view_stages;
+  }
+
   /** \brief Replaces all parameters at once; refused (PCL_ERROR, old values kept) if any is
    * invalid. The iteration cap stays setMaximumIterations()'s. */
   bool

@@ -215,20 +215,28 @@ struct RefinementParameters {
    * refinement moves the source samples onto the target's local surfaces (mean and
    * covariance per cube), a smooth cost that converges in a few Gauss-Newton steps from
    * within the basin. A refinement that moves the pose by more than the searched voxel
-   * size or 5 degrees is discarded. */
+   * size or 5 degrees (more with narrow_view_stages) is discarded. */
   Refinement method = Refinement::PointToDistribution;
   /** Cube edge of the target distributions, in the clouds' units; 0 (the default) =
    * 0.7 * resolution (Parameters::effectiveRefinementResolution()): not a multiple of the
    * source samples' cubes, so the two grids do not alias, and scale-free. */
   double resolution = 0.0;
-  /** Most Gauss-Newton iterations. */
+  /** Most Gauss-Newton iterations (per stage). */
   int max_iterations = 20;
+  /** For clouds with a narrow field of view (SearchParameters::narrow_view_position_starts
+   * says when): this many coarser stages first, on cubes 2^k times the refinement's (k =
+   * stages down to 1), each moving the samples of pyramid level k. A sparse scan's MI
+   * optimum lies up to a searched voxel or more from the truth, beyond the reach of the
+   * finest cubes; the coarser ones pull it in. The bound on how far the refinement may move
+   * the pose grows to (1 + stages) searched voxels and 5 * (1 + stages) degrees (0 = one
+   * stage; docs/method.md, "Refinement"). */
+  int narrow_view_stages = 2;
 
   bool
   operator==(const RefinementParameters& o) const
   {
     return method == o.method && resolution == o.resolution &&
-           max_iterations == o.max_iterations;
+           max_iterations == o.max_iterations && narrow_view_stages == o.narrow_view_stages;
   }
   bool
   operator!=(const RefinementParameters& o) const

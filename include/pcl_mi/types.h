@@ -142,8 +142,12 @@ struct AlignmentResult {
   int iterations = 0;
   /** Cost (mutual information) evaluations performed. */
   int evaluations = 0;
-  /** Gauss-Newton iterations of the refinement (0 when off or discarded). */
+  /** Gauss-Newton iterations of the refinement, summed over its stages (0 when off or
+   * discarded). */
   int refinement_iterations = 0;
+  /** Stages of the refinement: 1, or 1 + RefinementParameters::narrow_view_stages for a
+   * narrow field of view (0 when off or discarded). */
+  int refinement_stages = 0;
   /** Further starts around the guess the coarsest level used: position_starts, or
    * narrow_view_position_starts for a narrow field of view (0 when x and y are pinned). */
   int position_starts = 0;

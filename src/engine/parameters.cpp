@@ -111,6 +111,7 @@ Parameters::paper()
   p.sampling.source_subdivision = 0;
   p.search.restarts = 0;
   p.refinement.method = Refinement::None;
+  p.refinement.narrow_view_stages = 0;
   p.search.narrow_view_position_starts = 0;
   p.search.narrow_view_tilt_step = 0.0;
   p.search.narrow_view_yaw_start = 0.0;
@@ -179,6 +180,8 @@ Parameters::validate() const
       << refinement.resolution;
   else if (refinement.max_iterations < 1)
     s << "refinement iterations must be at least 1, got " << refinement.max_iterations;
+  else if (refinement.narrow_view_stages < 0 || refinement.narrow_view_stages > 4)
+    s << "narrow-view refinement stages must be 0..4, got " << refinement.narrow_view_stages;
   else if (!(f.restart_scale > 0.0) || !std::isfinite(f.restart_scale))
     s << "restart scale must be positive and finite, got " << f.restart_scale;
   return s.str();

@@ -186,6 +186,7 @@ PreparedProblem::prepare(std::string& error)
     levels_.clear();
     levels_.resize(static_cast<std::size_t>(num_levels));
     distributions_.reset();
+    coarser_distributions_.clear();
     target_axes_.setIdentity();
   }
 
@@ -370,6 +371,30 @@ PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks, bo
   });
   for (int l = 0; l < static_cast<int>(levels_.size()); ++l)
     tasks.emplace_back([this, l] { buildGrid(l); });
+}
+
+const TargetDistributions&
+PreparedProblem::distributions(int stage)
+{
+  if (stage == 0)
+    return *distributions_;
+  const std::size_t i = static_cast<std::size_t>(stage - 1);
+  if (coarser_distributions_.size() <= i)
+    coarser_distributions_.resize(i + 1);
+  if (!coarser_distributions_[i]) {
+    const SourceSamples cubes = makeSourceSamples(
+        target_.points, std::ldexp(parameters_.effectiveRefinementResolution(), stage));
+    coarser_distributions_[i] = std::make_unique<TargetDistributions>(
+        cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * parameters_.grid.resolution);
+  }
+  return *coarser_distributions_[i];
+}
+
+bool
+PreparedProblem::narrowView() const
+{
+  return std::min(target_.azimuth_coverage_deg, source_.azimuth_coverage_deg) <
+         kNarrowViewDegrees;
 }
 
 void

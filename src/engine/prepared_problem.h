@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -132,6 +133,20 @@ public:
   {
     return *source_levels_.front();
   }
+  /** \brief A refinement stage's target: distributions on cubes 2^stage times the
+   * refinement's (stage 0: distributions()); coarser stages are built on first use. */
+  const TargetDistributions&
+  distributions(int stage);
+  /** \brief The source samples a refinement stage moves: pyramid level \a stage's, or the
+   * coarsest level's beyond it. */
+  const SourceSamples&
+  refinementSamples(int stage) const
+  {
+    return *source_levels_[std::min(static_cast<std::size_t>(stage), source_levels_.size() - 1)];
+  }
+  /** \brief True when either cloud covers less than kNarrowViewDegrees of azimuth. */
+  bool
+  narrowView() const;
   /** \brief The clouds' up directions in their local frames (estimateUpDirection() on the
    * refinement's cubes and samples); nothing where a cloud shows none. */
   const std::optional<Eigen::Vector3d>&
@@ -211,6 +226,8 @@ private:
   /** The source's samples per level (finest first), built with the source. */
   std::vector<std::shared_ptr<const SourceSamples>> source_levels_;
   std::unique_ptr<TargetDistributions> distributions_;
+  /** Coarser refinement stages' distributions (stage 1 first), built on first use. */
+  std::vector<std::unique_ptr<TargetDistributions>> coarser_distributions_;
   std::optional<Eigen::Vector3d> source_up_, target_up_;
   Eigen::Matrix3d target_axes_ = Eigen::Matrix3d::Identity();
   BackendFactory backends_;

@@ -16,16 +16,18 @@ namespace {
 
 /** A refinement that moves the pose further than this (times the voxel size of the finest
  * level the MI search ran on, and degrees) left the MI basin and is discarded. The MI
- * optimum is quantised by that level's voxels, so it can be up to about one voxel off. */
+ * optimum is quantised by that level's voxels, so it can be up to about one voxel off.
+ * Each coarser stage, whose cubes reach twice as far, adds as much again. */
 constexpr double kRefinementMaxShift = 1.0;
 constexpr double kRefinementMaxTurnDeg = 5.0;
 
 } // namespace
 
 RefinedOptimum
-refineOptimum(const PreparedProblem& problem,
+refineOptimum(PreparedProblem& problem,
               const SearchSpace& space,
-              const Eigen::Matrix4d& optimum)
+              const Eigen::Matrix4d& optimum,
+              int coarser_stages)
 {
   const Parameters& p = problem.parameters();
   const LocalPose start = problem.toLocal(optimum);
@@ -35,18 +37,23 @@ refineOptimum(const PreparedProblem& problem,
   const std::array<bool, 6> searched = space.searched();
   for (int i = 0; i < 6; ++i)
     options.active[i] = searched[static_cast<std::size_t>(i)];
-  const RefinementResult refined = refineToDistributions(
-      problem.distributions(), problem.refinementSamples(), start.rotation, start.translation,
-      options);
-
   RefinedOptimum result;
-  result.iterations = refined.iterations;
+  RefinementResult refined;
+  refined.rotation = start.rotation;
+  refined.translation = start.translation;
+  for (int stage = coarser_stages; stage >= 0; --stage) {
+    refined = refineToDistributions(problem.distributions(stage), problem.refinementSamples(stage),
+                                    refined.rotation, refined.translation, options);
+    result.iterations += refined.iterations;
+  }
+
+  const double reach = 1.0 + coarser_stages;
   const double turn_deg =
       Eigen::AngleAxisd(refined.rotation * start.rotation.transpose()).angle() * 180.0 / M_PI;
   const double searched_resolution = problem.levelResolution(problem.firstSearchedLevel());
-  result.accepted =
-      (refined.translation - start.translation).norm() <= kRefinementMaxShift * searched_resolution &&
-      turn_deg <= kRefinementMaxTurnDeg;
+  result.accepted = (refined.translation - start.translation).norm() <=
+                        reach * kRefinementMaxShift * searched_resolution &&
+                    turn_deg <= reach * kRefinementMaxTurnDeg;
   if (result.accepted)
     result.transformation = problem.fromLocal({refined.rotation, refined.translation});
   return result;

@@ -16,14 +16,20 @@ namespace core {
 /** \brief A refined pose and whether it stays inside the MI basin. */
 struct RefinedOptimum {
   Eigen::Matrix4d transformation = Eigen::Matrix4d::Identity(); ///< source to target
-  int iterations = 0;    ///< Gauss-Newton iterations
-  bool accepted = false; ///< within a searched voxel and 5 degrees of the MI optimum
+  int iterations = 0;    ///< Gauss-Newton iterations, summed over the stages
+  /** Within (1 + coarser_stages) searched voxels and 5 * (1 + coarser_stages) degrees of
+   * the MI optimum. */
+  bool accepted = false;
 };
 
 /** \brief Refines \a optimum (source to target, input frames) in the parameters \a space
- * searches. */
+ * searches: \a coarser_stages stages on cubes 2^k times the refinement's (k = coarser_stages
+ * down to 1), then the refinement's own. */
 RefinedOptimum
-refineOptimum(const PreparedProblem& problem, const SearchSpace& space, const Eigen::Matrix4d& optimum);
+refineOptimum(PreparedProblem& problem,
+              const SearchSpace& space,
+              const Eigen::Matrix4d& optimum,
+              int coarser_stages);
 
 } // namespace core
 } // namespace pcl_mi

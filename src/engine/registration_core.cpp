@@ -128,12 +128,16 @@ finishCandidate(core::PreparedProblem& problem,
   const Parameters& p = problem.parameters();
   result.transformation = space.pose(x);
   result.refinement_iterations = 0;
+  result.refinement_stages = 0;
   if (p.refinement.method == Refinement::PointToDistribution) {
     core::StageClock refinement_clock;
-    const core::RefinedOptimum refined = core::refineOptimum(problem, space, result.transformation);
+    const int coarser_stages = problem.narrowView() ? p.refinement.narrow_view_stages : 0;
+    const core::RefinedOptimum refined =
+        core::refineOptimum(problem, space, result.transformation, coarser_stages);
     refinement_clock.end(result.stages, "refinement", refined.iterations);
     if (refined.accepted) {
       result.refinement_iterations = refined.iterations;
+      result.refinement_stages = 1 + coarser_stages;
       result.transformation = refined.transformation;
     }
   }
@@ -190,6 +194,7 @@ keepTheFinestGridsChoice(core::PreparedProblem& problem,
       result.converged = other.converged;
       result.search_converged = other.search_converged;
       result.refinement_iterations = other.refinement_iterations;
+      result.refinement_stages = other.refinement_stages;
       result.mutual_information = other.mutual_information;
       result.verification = std::move(other.verification);
       result.runner_up_kept = true;
@@ -274,8 +279,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   // field of view with wider tilt steps, about its sensor.
   const Parameters& p = problem.parameters();
   const core::LocalCloud& source = problem.source();
-  const bool narrow_view = std::min(problem.target().azimuth_coverage_deg,
-                                    source.azimuth_coverage_deg) < core::kNarrowViewDegrees;
+  const bool narrow_view = problem.narrowView();
   const bool tilts = narrow_view && p.search.narrow_view_tilt_step > 0.0;
   const bool about_sensor =
       tilts && source.centroid.norm() <= kSensorOriginRadii * source.rms_radius;
