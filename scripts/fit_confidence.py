@@ -7,9 +7,13 @@ evidence: normalised MI, weakest contrast, logit of the inlier fraction, log(1 +
 and peak contrast. Every set weighs the same, whatever its number of results, and a small
 ridge keeps the weights finite where a set separates perfectly. The verdict it is scored
 with is the engine's: search converged, at least 30 inliers, free-direction contrast at
-least 0.05 and confidence at least 0.9.
+least 0.05 and confidence at least THRESHOLD (kReliableConfidence).
 
-Usage: fit_confidence.py [-success T,R] A.csv B.csv ...
+With -weights W1,...,W5 the five weights are kept (the model's, in the order above) and
+only the intercept is fitted: a recalibration after a change of the engine moved the
+results, which keeps what the weights learnt about unrelated scenes.
+
+Usage: fit_confidence.py [-success T,R] [-weights W1,...,W5] A.csv B.csv ...
 """
 import csv
 import os
@@ -20,6 +24,7 @@ import numpy as np
 TERMS = ["normalized_mi", "weakest_contrast", "logit(inlier_fraction)", "log1p(inliers)",
          "peak_contrast"]
 RIDGE = 0.1
+THRESHOLD = 0.95
 
 
 def load(path, bound):
@@ -32,6 +37,18 @@ def load(path, bound):
     y = (g("translation_error_m") < bound[0]) & (g("rotation_error_deg") < bound[1])
     gate = (g("search_converged") > 0.5) & (g("inliers") >= 30) & (g("free_direction_contrast") >= 0.05)
     return x, y, gate
+
+
+def fit_intercept(x, y, w, weights):
+    z, c = x @ weights, 0.0
+    for _ in range(100):
+        p = 1.0 / (1.0 + np.exp(-(z + c)))
+        # Newton's step, bounded: a set the intercept alone separates saturates p.
+        step = np.clip((w * (p - y)).sum() / max((w * p * (1 - p)).sum(), 1e-9), -1.0, 1.0)
+        c -= step
+        if abs(step) < 1e-12:
+            break
+    return np.r_[c, weights]
 
 
 def fit(x, y, w):
@@ -54,8 +71,15 @@ def predict(b, x):
 
 def main(argv):
     args, files, bound = argv[1:], [], (0.5, 2.0)
-    if len(args) >= 2 and args[0] == "-success":
-        bound, args = tuple(float(v) for v in args[1].split(",")), args[2:]
+    weights = None
+    while len(args) >= 2 and args[0] in ("-success", "-weights"):
+        values = tuple(float(v) for v in args[1].split(","))
+        if args[0] == "-success":
+            bound = values
+        else:
+            weights = np.array(values)
+        args = args[2:]
+    fitter = fit if weights is None else lambda x, y, w: fit_intercept(x, y, w, weights)
     sets = {os.path.splitext(os.path.basename(p))[0]: load(p, bound) for p in args}
 
     def pooled(names):
@@ -64,16 +88,23 @@ def main(argv):
         w = np.concatenate([np.full(len(sets[n][1]), 1000.0 / len(sets[n][1])) for n in names])
         return x, y, w
 
-    b = fit(*pooled(list(sets)))
+    b = fitter(*pooled(list(sets)))
     print("intercept %.2f" % b[0])
     for name, weight in zip(TERMS, b[1:]):
         print("%-24s %.2f" % (name, weight))
+    x, y, _ = pooled(list(sets))
+    y = y > 0.5
+    gate = np.concatenate([sets[n][2] for n in sets])
+    said = gate & (predict(b, x) >= THRESHOLD)
+    print("\nIn sample: %d converged, %d wrong among them (%.2f %%), recall %.1f %%" % (
+        said.sum(), (said & ~y).sum(), 100.0 * (said & ~y).sum() / max(said.sum(), 1),
+        100.0 * (said & y).sum() / max(y.sum(), 1)))
     print("\nLeft out in turn (fitted on the others): converged, wrong among them, recall")
     totals = np.zeros(4)
     for name in sets:
         others = [n for n in sets if n != name]
         x, y, gate = sets[name]
-        said = gate & (predict(fit(*pooled(others)), x) >= 0.9)
+        said = gate & (predict(fitter(*pooled(others)), x) >= THRESHOLD)
         totals += [said.sum(), (said & ~y).sum(), (said & y).sum(), y.sum()]
         print("%-24s %5d %4d (%4.1f %%) %5.1f %%" % (name, said.sum(), (said & ~y).sum(),
               100.0 * (said & ~y).sum() / max(said.sum(), 1), 100.0 * (said & y).sum() / max(y.sum(), 1)))

@@ -38,7 +38,7 @@ namespace pcl {
  * hasConverged() is true only when the simplex shrank below the tolerances
  * (setTranslationTolerance(), setRotationTolerance()) and the result passed the
  * reliability test: enough source samples on the target's surfaces, no direction the
- * surfaces leave free, and getConfidence() >= 0.9 (docs/method.md, "The verdict").
+ * surfaces leave free, and getConfidence() >= 0.95 (docs/method.md, "The verdict").
  * Hitting the iteration cap (setMaximumIterations()), a failed test or any failure leaves
  * it false, with the reason in getLastError(). Failures are reported with PCL_ERROR; no
  * exception leaves align().
@@ -508,7 +508,7 @@ public:
 
   /** \brief Probability (0 to 1) that the last result is within 0.5 m and 2 degrees of the
    * true pose, calibrated on real scans of several sensors (docs/method.md, "The verdict");
-   * 0 after a failure. hasConverged() requires at least 0.9. */
+   * 0 after a failure. hasConverged() requires at least 0.95. */
   double
   getConfidence() const
   {

@@ -16,8 +16,9 @@
 namespace pcl_mi {
 namespace core {
 
-/** Confidence at or above which a result passes the reliability test. */
-constexpr double kReliableConfidence = 0.9;
+/** Confidence at or above which a result passes the reliability test: a result passes
+ * when it is right with a probability of at least 95 %. */
+constexpr double kReliableConfidence = 0.95;
 
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
