@@ -63,6 +63,10 @@ miOptionTable(MiOptionSet set)
        format("two more starts, turned by +-DEG of yaw, for a narrow field of view\n"
               "(default %g; 0 = off)",
               d.search.narrow_view_yaw_start * 180.0 / M_PI)},
+      {"-narrow_view_scans", V::Number, "-narrow_view_scans N",
+       format("starts at the best-scoring turns of a yaw/pitch grid about the sensor,\n"
+              "for a narrow field of view (default %g; 0 = none)",
+              d.search.narrow_view_scanned_starts)},
       {"-second_search", V::Number, "-second_search N",
        format("headings of the wider second search a 360-degree pair gets when its\n"
               "result is not trusted (default %g; 0 = none)",
@@ -200,6 +204,7 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
     p.search.narrow_view_tilt_step = std::atof(v) * M_PI / 180.0;
   if (const char* v = optionValue(argc, argv, "-narrow_view_yaw"))
     p.search.narrow_view_yaw_start = std::atof(v) * M_PI / 180.0;
+  readInt(argc, argv, "-narrow_view_scans", p.search.narrow_view_scanned_starts);
   readInt(argc, argv, "-second_search", p.search.second_search_headings);
   std::string error = readOnOff(argc, argv, "-leveling", p.search.leveling);
   if (error.empty())

@@ -305,6 +305,10 @@ run(int argc, char** argv)
     print_value("%d (narrow field of view, +-%.0f deg)\n", reg.getLastResult().yaw_starts,
                 parameters.search.narrow_view_yaw_start * 180.0 / M_PI);
   }
+  if (reg.getLastResult().scanned_starts > 0) {
+    print_info("Scanned starts: ");
+    print_value("%d (narrow field of view)\n", reg.getLastResult().scanned_starts);
+  }
   if (reg.getLastResult().refinement_stages > 1) {
     print_info("Refinement stages: ");
     print_value("%d (narrow field of view)\n", reg.getLastResult().refinement_stages);

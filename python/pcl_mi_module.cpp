@@ -124,6 +124,8 @@ toSettings(const py::kwargs& kwargs)
        [&](const py::handle& v) { p.search.narrow_view_tilt_step = v.cast<double>(); }},
       {"narrow_view_yaw_start",
        [&](const py::handle& v) { p.search.narrow_view_yaw_start = v.cast<double>(); }},
+      {"narrow_view_scanned_starts",
+       [&](const py::handle& v) { p.search.narrow_view_scanned_starts = v.cast<int>(); }},
       {"second_search_headings",
        [&](const py::handle& v) { p.search.second_search_headings = v.cast<int>(); }},
       {"leveling", [&](const py::handle& v) { p.search.leveling = v.cast<bool>(); }},

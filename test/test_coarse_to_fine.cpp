@@ -159,6 +159,50 @@ TEST(CoarseToFine, YawStartsReachANarrowWellBesideTheGuess)
   EXPECT_NEAR(with_turns.best.x[2], 0.5, 0.02);
 }
 
+TEST(CoarseToFine, ScannedStartsReachAWellTurnedInYawAndPitch)
+{
+  // Search vector [x, y, pitch, yaw]: a narrow well at pitch -0.35 and yaw 0.7 rad, on a
+  // bowl whose floor is at the guess. Neither the simplex from the guess nor the yaw
+  // starts at +-0.5 rad reach it; the scan of turns scores it and starts there.
+  auto f = [](int, const Eigen::VectorXd& x) {
+    const double xy = x[0] * x[0] + x[1] * x[1];
+    const double pitch = (x[2] + 0.35) / 0.05, yaw = (x[3] - 0.7) / 0.05;
+    return 1.0 + xy + x[2] * x[2] + x[3] * x[3] - 2.0 * std::exp(-pitch * pitch - yaw * yaw - xy);
+  };
+  CoarseToFineOptions o;
+  o.steps = Eigen::Vector4d(8.0, 8.0, 0.35, 0.8);
+  o.tolerance = Eigen::Vector4d(0.005, 0.005, 0.0005, 0.0005);
+  o.translational = {true, true, false, false};
+  o.x_index = 0;
+  o.y_index = 1;
+  o.pitch_index = 2;
+  o.yaw_index = 3;
+  o.yaw_starts = {0.5, -0.5};
+  SyntheticCosts plain(2, f);
+  const auto without = pcl_mi::core::searchCoarseToFine(plain, o);
+  EXPECT_TRUE(without.scanned_turns.empty());
+  o.scanned_starts = 2;
+  SyntheticCosts scanned(2, f);
+  const auto with = pcl_mi::core::searchCoarseToFine(scanned, o);
+  EXPECT_GT(without.best.value, 0.5);
+  EXPECT_LT(with.best.value, 0.0);
+  EXPECT_NEAR(with.best.x[2], -0.35, 0.02);
+  EXPECT_NEAR(with.best.x[3], 0.7, 0.02);
+  // Only the well's turn scores better than the guess: the bowl's other turns are no lead.
+  ASSERT_EQ(with.scanned_turns.size(), 1u);
+  EXPECT_NEAR(with.scanned_turns[0][0], -0.35, 1e-12);
+  EXPECT_NEAR(with.scanned_turns[0][1], 0.7, 1e-12);
+  // Where the guess scores best on the grid, no turn is a lead.
+  SyntheticCosts bowl_only(2, [](int, const Eigen::VectorXd& x) { return x.squaredNorm(); });
+  EXPECT_TRUE(pcl_mi::core::searchCoarseToFine(bowl_only, o).scanned_turns.empty());
+  // The grid is scored in two halves, one per thread: the result does not depend on them.
+  o.num_threads = 1;
+  SyntheticCosts serial(2, f);
+  const auto one_thread = pcl_mi::core::searchCoarseToFine(serial, o);
+  EXPECT_EQ(one_thread.best.x, with.best.x);
+  EXPECT_EQ(one_thread.evaluations, with.evaluations);
+}
+
 TEST(CoarseToFine, TheBudgetCapsEveryIterationAndThreadsDoNotChangeTheResult)
 {
   const Eigen::Vector3d centre(1.0, 2.0, 0.1);

@@ -397,11 +397,45 @@ TEST(Registration, ANarrowViewAlsoStartsTurnedInYaw)
     EXPECT_POSE_NEAR(full.getFinalTransformation().cast<double>(), reference);
     EXPECT_EQ(narrow.getLastResult().yaw_starts, yaw > 0.0 ? 2 : 0);
     EXPECT_EQ(full.getLastResult().yaw_starts, 0);
+    // At the identity guess, no turn of the scan grid scores better than the guess itself.
+    EXPECT_EQ(narrow.getNarrowViewScannedStarts(), 2);
+    EXPECT_EQ(narrow.getLastResult().scanned_starts, 0);
+    EXPECT_EQ(full.getLastResult().scanned_starts, 0);
+  }
+  // A guess turned by 70 deg of yaw from the truth (the fixed yaw starts off): turns of the
+  // grid score better than the guess and start searches of their own, which find the pose;
+  // without them the search ends about 12 m off.
+  const Eigen::Matrix4d turned =
+      reference *
+      Eigen::Affine3d(Eigen::AngleAxisd(70.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ())).matrix();
+  for (const int scans : {2, 0}) {
+    SCOPED_TRACE(scans);
+    pcl::MutualInformationRegistration<pcl::PointXYZ> narrow;
+    narrow.setNarrowViewScannedStarts(scans);
+    narrow.setNarrowViewYawStart(0.0);
+    narrow.setInputSource(cutToView(test_data::loadScan("00", 9)));
+    narrow.setInputTarget(cutToView(test_data::loadScan("00", 0)));
+    Cloud aligned;
+    narrow.align(aligned, turned.cast<float>());
+    EXPECT_EQ(narrow.getLastResult().scanned_starts, scans);
+    if (scans > 0) {
+      EXPECT_TRUE(narrow.hasConverged()) << narrow.getLastError();
+      EXPECT_POSE_NEAR(narrow.getFinalTransformation().cast<double>(), reference);
+    }
+    else {
+      EXPECT_GT(pcl_mi::io::poseError(narrow.getFinalTransformation().cast<double>(), reference)
+                    .translation,
+                1.0);
+    }
   }
   EXPECT_EQ(pcl_mi::Parameters::paper().search.narrow_view_yaw_start, 0.0);
+  EXPECT_EQ(pcl_mi::Parameters::paper().search.narrow_view_scanned_starts, 0);
   pcl_mi::Parameters invalid;
   invalid.search.narrow_view_yaw_start = 4.0;
   EXPECT_NE(invalid.validate().find("narrow-view yaw start"), std::string::npos);
+  invalid = pcl_mi::Parameters();
+  invalid.search.narrow_view_scanned_starts = -1;
+  EXPECT_NE(invalid.validate().find("narrow-view scanned starts"), std::string::npos);
 }
 
 TEST(Registration, NoReturnMarkersDoNotMakeAnOptimum)

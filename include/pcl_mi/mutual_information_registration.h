@@ -288,6 +288,21 @@ public:
     return core_.parameters().search.narrow_view_yaw_start;
   }
 
+  /** \brief Where either cloud has a narrow field of view, this many more starts of the
+   * coarsest level at the turns about the sensor that score best on a grid of yaw and pitch
+   * (default 2; 0 = none; pcl_mi::SearchParameters::narrow_view_scanned_starts). */
+  void
+  setNarrowViewScannedStarts(int starts)
+  {
+    setField("setNarrowViewScannedStarts", &Params::search, &Search::narrow_view_scanned_starts,
+             starts);
+  }
+  int
+  getNarrowViewScannedStarts() const
+  {
+    return core_.parameters().search.narrow_view_scanned_starts;
+  }
+
   /** \brief Headings of the second, wider search that a 360-degree pair whose result the
    * verification does not trust gets (default 4; 0 = none;
    * pcl_mi::SearchParameters::second_search_headings). getLastResult().second_search says

@@ -157,6 +157,15 @@ struct SearchParameters {
    * guess alone often settles on the part of the scene the two views share least well
    * (docs/benchmarks.md, "Narrow views: starts turned in yaw"). */
   double narrow_view_yaw_start = 0.5;
+  /** For clouds with a narrow field of view (as for narrow_view_position_starts): this
+   * many more starts of the coarsest level at the guess's position, turned by the turns
+   * that score best among a grid of yaw (every 10 degrees within 60) and pitch (within 30)
+   * about the sensor, at least 11 degrees from the guess and 17 from each other (0 = none).
+   * A sensor turned on the spot changes what it sees with every turn; the grid costs 91
+   * evaluations and finds the turn that the simplex's steps miss (docs/benchmarks.md,
+   * "Narrow views: scanned turns"). AlignmentResult::scanned_starts says how many an
+   * alignment used. */
+  int narrow_view_scanned_starts = 2;
   /** For clouds without a narrow field of view, when the verification does not trust the
    * result: a second, wider search from this many headings spread over 360 degrees, with
    * roll and pitch steps of at least 0.35 rad (0 = none). Of its optima and the first

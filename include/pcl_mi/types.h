@@ -154,6 +154,9 @@ struct AlignmentResult {
   /** Further starts at the guess's position turned in yaw: 2 for a narrow field of view
    * (SearchParameters::narrow_view_yaw_start), else 0. */
   int yaw_starts = 0;
+  /** Further starts at turns the coarsest level scored best on a grid, for a narrow field
+   * of view (SearchParameters::narrow_view_scanned_starts), else 0. */
+  int scanned_starts = 0;
   /** The search turned the source about its sensor (the origin of its frame) with wider
    * roll and pitch steps, as SearchParameters::narrow_view_tilt_step says for a narrow field
    * of view; false where it turned it about its centroid. */

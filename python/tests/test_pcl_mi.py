@@ -157,6 +157,7 @@ def test_the_coarsest_level_can_search_on_mi_alone(pair):
     (lambda s, t: pcl_mi.align(s, t, backend="gpu"), "backend"),
     (lambda s, t: pcl_mi.align(s, t, batching="yes"), "batching"),
     (lambda s, t: pcl_mi.align(s, t, narrow_view_yaw_start=4.0), "narrow-view yaw start"),
+    (lambda s, t: pcl_mi.align(s, t, narrow_view_scanned_starts=9), "narrow-view scanned starts"),
     (lambda s, t: pcl_mi.align(s, t, refinement_narrow_view_stages=5),
      "narrow-view refinement stages"),
 ])

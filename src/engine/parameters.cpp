@@ -93,6 +93,7 @@ SearchParameters::operator==(const SearchParameters& o) const
          narrow_view_position_starts == o.narrow_view_position_starts &&
          narrow_view_tilt_step == o.narrow_view_tilt_step &&
          narrow_view_yaw_start == o.narrow_view_yaw_start &&
+         narrow_view_scanned_starts == o.narrow_view_scanned_starts &&
          second_search_headings == o.second_search_headings && leveling == o.leveling &&
          coarse_normalized_mi == o.coarse_normalized_mi &&
          restarts == o.restarts && restart_scale == o.restart_scale &&
@@ -115,6 +116,7 @@ Parameters::paper()
   p.search.narrow_view_position_starts = 0;
   p.search.narrow_view_tilt_step = 0.0;
   p.search.narrow_view_yaw_start = 0.0;
+  p.search.narrow_view_scanned_starts = 0;
   p.search.second_search_headings = 0;
   p.search.leveling = false;
   p.search.coarse_normalized_mi = false;
@@ -162,6 +164,8 @@ Parameters::validate() const
     s << "the narrow-view tilt step must be 0..pi rad, got " << f.narrow_view_tilt_step;
   else if (!(f.narrow_view_yaw_start >= 0.0 && f.narrow_view_yaw_start <= M_PI))
     s << "the narrow-view yaw start must be 0..pi rad, got " << f.narrow_view_yaw_start;
+  else if (f.narrow_view_scanned_starts < 0 || f.narrow_view_scanned_starts > 8)
+    s << "narrow-view scanned starts must be 0..8, got " << f.narrow_view_scanned_starts;
   else if (f.second_search_headings < 0 || f.second_search_headings > 360)
     s << "second-search headings must be 0..360, got " << f.second_search_headings;
   else if (g.pyramid_levels < 1 || g.pyramid_levels > 8)

@@ -305,6 +305,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     widenTilt(space, p.search.narrow_view_tilt_step, options);
   if (narrow_view && p.search.narrow_view_yaw_start > 0.0)
     options.yaw_starts = {p.search.narrow_view_yaw_start, -p.search.narrow_view_yaw_start};
+  if (narrow_view)
+    options.scanned_starts = p.search.narrow_view_scanned_starts;
   // Normalised MI on the coarsest level only where finer levels follow it.
   const int coarsest = problem.levels() - 1;
   MutualInformationCosts costs(
@@ -314,6 +316,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.stages.insert(result.stages.end(), found.stages.begin(), found.stages.end());
   result.position_starts = options.position_starts;
   result.yaw_starts = options.yaw_index >= 0 ? static_cast<int>(options.yaw_starts.size()) : 0;
+  result.scanned_starts = static_cast<int>(found.scanned_turns.size());
   result.turned_about_sensor = about_sensor;
   result.leveled = leveled.has_value();
   result.iterations = found.iterations;

@@ -33,6 +33,17 @@ constexpr int kMaxStartCandidates = 8;
 /** Rotation (rad) below which two coarse optima half a coarse voxel apart are one basin. */
 constexpr double kCandidateSeparationRad = 0.2;
 
+/** The grid of turns that scanned starts are chosen from: yaw and pitch in steps of
+ * kScanStepRad (10 degrees), up to kScanYawSteps and kScanPitchSteps of them either way. A
+ * handheld narrow view turns mostly in yaw and tilts less. */
+constexpr double kScanStepRad = 0.175;
+constexpr int kScanYawSteps = 6;
+constexpr int kScanPitchSteps = 3;
+/** A scanned turn closer to the guess than this (rad, in yaw and pitch) is the guess's own
+ * start; two closer to each other than kScanSeparationRad are one. */
+constexpr double kScanMinTurnRad = 0.2;
+constexpr double kScanSeparationRad = 0.3;
+
 /** One search's start: point, simplex steps and iteration cap. */
 struct Start {
   Eigen::VectorXd x0;
@@ -131,7 +142,14 @@ public:
     const Eigen::VectorXd origin = Eigen::VectorXd::Zero(n);
     const int headings = o_.yaw_index >= 0 ? o_.heading_starts : 1;
     const int positions = o_.position_starts;
-    const int turns = o_.yaw_index >= 0 ? static_cast<int>(o_.yaw_starts.size()) : 0;
+    // Turns at the guess's position: the fixed yaw offsets, then the scanned turns.
+    std::vector<Eigen::Vector2d> turns_at_guess; // (pitch, yaw)
+    if (o_.yaw_index >= 0)
+      for (const double yaw : o_.yaw_starts)
+        turns_at_guess.emplace_back(0.0, yaw);
+    for (const Eigen::Vector2d& turn : scannedTurns(level))
+      turns_at_guess.push_back(turn);
+    const int turns = static_cast<int>(turns_at_guess.size());
     const int starts = headings + positions + turns;
     // Each start gets the same share of the budget; the mirrored simplex (all steps
     // negated) makes the pair symmetric about the start, and the fixed shares make the
@@ -144,8 +162,13 @@ public:
       Eigen::VectorXd start = origin;
       if (k > 0 && k < headings) // k * 360 / headings degrees, in (-180, 180]
         start[o_.yaw_index] = std::remainder(2.0 * M_PI * k / headings, 2.0 * M_PI);
-      if (k >= headings + positions)
-        start[o_.yaw_index] = o_.yaw_starts[static_cast<std::size_t>(k - headings - positions)];
+      if (k >= headings + positions) {
+        const Eigen::Vector2d& turn =
+            turns_at_guess[static_cast<std::size_t>(k - headings - positions)];
+        if (o_.pitch_index >= 0)
+          start[o_.pitch_index] = turn[0];
+        start[o_.yaw_index] = turn[1];
+      }
       else if (k >= headings) {
         const double angle = 2.0 * M_PI * (k - headings) / positions;
         if (o_.x_index >= 0)
@@ -170,6 +193,58 @@ public:
       start_best.push_back(results[k + 1].value < results[k].value ? results[k + 1] : results[k]);
     }
     return start_best;
+  }
+
+  /** The options.scanned_starts best turns of the scan grid on \a level, best first and
+   * distinct (their evaluations booked, CoarseToFineResult::scanned_turns set). The grid is
+   * scored in two halves, one per evaluator, or as one batch where the costs prefer it. */
+  std::vector<Eigen::Vector2d>
+  scannedTurns(int level)
+  {
+    if (o_.scanned_starts <= 0 || o_.yaw_index < 0 || o_.pitch_index < 0)
+      return {};
+    std::vector<Eigen::VectorXd> grid;
+    for (int a = -kScanYawSteps; a <= kScanYawSteps; ++a)
+      for (int b = -kScanPitchSteps; b <= kScanPitchSteps; ++b) {
+        Eigen::VectorXd x = Eigen::VectorXd::Zero(o_.steps.size());
+        x[o_.yaw_index] = a * kScanStepRad;
+        x[o_.pitch_index] = b * kScanStepRad;
+        grid.push_back(x);
+      }
+    std::vector<double> values(grid.size());
+    if (costs_.prefersBatches())
+      costs_.costs(level, 0, grid, values);
+    else {
+      const std::size_t half = grid.size() / 2;
+      parallelFor(2, o_.num_threads, [&](int slot) {
+        const std::size_t begin = slot == 0 ? 0 : half;
+        const std::size_t end = slot == 0 ? half : grid.size();
+        for (std::size_t i = begin; i < end; ++i)
+          values[i] = costs_.cost(level, slot, grid[i]);
+      });
+    }
+    result_.evaluations += static_cast<int>(grid.size());
+    ++result_.batches;
+    std::vector<std::size_t> order(grid.size());
+    for (std::size_t i = 0; i < order.size(); ++i)
+      order[i] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return values[a] < values[b]; });
+    // The guess is the grid's centre: a turn that scores no better is no lead.
+    const double at_guess = values[grid.size() / 2];
+    std::vector<Eigen::Vector2d>& turns = result_.scanned_turns;
+    turns.clear();
+    for (const std::size_t i : order) {
+      if (static_cast<int>(turns.size()) == o_.scanned_starts || !(values[i] < at_guess))
+        break;
+      const Eigen::Vector2d turn(grid[i][o_.pitch_index], grid[i][o_.yaw_index]);
+      bool distinct = turn.cwiseAbs().maxCoeff() > kScanMinTurnRad;
+      for (const Eigen::Vector2d& other : turns)
+        distinct = distinct && (turn - other).cwiseAbs().maxCoeff() > kScanSeparationRad;
+      if (distinct)
+        turns.push_back(turn);
+    }
+    return turns;
   }
 
   /** What the first finer level refines: the coarse optimum; the guess (the origin) when
