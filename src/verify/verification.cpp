@@ -31,7 +31,8 @@ constexpr std::size_t kProbeSamples = 4096;
 /** The logistic model: confidence = 1 / (1 + exp(-(intercept + sum of weight * term))),
  * fitted by scripts/fit_confidence.py on the evidence of every result of the real sets in
  * docs/benchmarks.md ("The verdict"), each set weighing the same; the intercept was refitted
- * alone (-weights) after the narrow-view refinement stages made more Livox results right. */
+ * alone (-weights) after the narrow-view refinement stages and scanned turns made more Livox
+ * results right. */
 constexpr double kIntercept = -9.66;
 constexpr double kWeightNormalizedMi = 19.70;
 constexpr double kWeightWeakestContrast = 7.40;
