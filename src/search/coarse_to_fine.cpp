@@ -212,8 +212,10 @@ public:
         grid.push_back(x);
       }
     std::vector<double> values(grid.size());
-    if (costs_.prefersBatches())
+    if (costs_.prefersBatches()) {
       costs_.costs(level, 0, grid, values);
+      ++result_.batches;
+    }
     else {
       const std::size_t half = grid.size() / 2;
       parallelFor(2, o_.num_threads, [&](int slot) {
@@ -224,7 +226,6 @@ public:
       });
     }
     result_.evaluations += static_cast<int>(grid.size());
-    ++result_.batches;
     std::vector<std::size_t> order(grid.size());
     for (std::size_t i = 0; i < order.size(); ++i)
       order[i] = i;
