@@ -88,11 +88,11 @@ def main(argv):
         w = np.concatenate([np.full(len(sets[n][1]), 1000.0 / len(sets[n][1])) for n in names])
         return x, y, w
 
-    b = fitter(*pooled(list(sets)))
+    x, y, w = pooled(list(sets))
+    b = fitter(x, y, w)
     print("intercept %.2f" % b[0])
     for name, weight in zip(TERMS, b[1:]):
         print("%-24s %.2f" % (name, weight))
-    x, y, _ = pooled(list(sets))
     y = y > 0.5
     gate = np.concatenate([sets[n][2] for n in sets])
     said = gate & (predict(b, x) >= THRESHOLD)

@@ -375,21 +375,26 @@ TEST(Registration, NarrowViewTurnsAboutTheSensorOnlyWhereItIsNear)
   EXPECT_NE(invalid.validate().find("narrow-view tilt step"), std::string::npos);
 }
 
-// The yaw starts are a narrow view's: the cut pair searches from two more starts, the
-// full 360-degree scans do not, and the setting is validated like the tilt step.
+// The yaw starts and the scanned turns are a narrow view's: the cut pair searches from two
+// more starts, the full 360-degree scans do not, and the settings are validated like the
+// tilt step.
 TEST(Registration, ANarrowViewAlsoStartsTurnedInYaw)
 {
   const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
+  const Cloud::Ptr later = test_data::loadScan("00", 9);
+  const Cloud::Ptr earlier = test_data::loadScan("00", 0);
+  const Cloud::Ptr later_cut = cutToView(later);
+  const Cloud::Ptr earlier_cut = cutToView(earlier);
   for (const double yaw : {0.5, 0.0}) {
     SCOPED_TRACE(yaw);
     pcl::MutualInformationRegistration<pcl::PointXYZ> narrow, full;
     narrow.setNarrowViewYawStart(yaw);
     full.setNarrowViewYawStart(yaw);
     EXPECT_EQ(narrow.getNarrowViewYawStart(), yaw);
-    narrow.setInputSource(cutToView(test_data::loadScan("00", 9)));
-    narrow.setInputTarget(cutToView(test_data::loadScan("00", 0)));
-    full.setInputSource(test_data::loadScan("00", 9));
-    full.setInputTarget(test_data::loadScan("00", 0));
+    narrow.setInputSource(later_cut);
+    narrow.setInputTarget(earlier_cut);
+    full.setInputSource(later);
+    full.setInputTarget(earlier);
     Cloud aligned;
     narrow.align(aligned);
     full.align(aligned);
@@ -413,8 +418,8 @@ TEST(Registration, ANarrowViewAlsoStartsTurnedInYaw)
     pcl::MutualInformationRegistration<pcl::PointXYZ> narrow;
     narrow.setNarrowViewScannedStarts(scans);
     narrow.setNarrowViewYawStart(0.0);
-    narrow.setInputSource(cutToView(test_data::loadScan("00", 9)));
-    narrow.setInputTarget(cutToView(test_data::loadScan("00", 0)));
+    narrow.setInputSource(later_cut);
+    narrow.setInputTarget(earlier_cut);
     Cloud aligned;
     narrow.align(aligned, turned.cast<float>());
     EXPECT_EQ(narrow.getLastResult().scanned_starts, scans);

@@ -364,8 +364,7 @@ PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks, bo
   tasks.emplace_back([this, estimate_up] {
     const SourceSamples cubes =
         makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
-    distributions_ = std::make_unique<TargetDistributions>(
-        cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * parameters_.grid.resolution);
+    distributions_ = makeDistributions(cubes);
     if (estimate_up)
       target_up_ = estimateUpDirection(cubes);
   });
@@ -381,13 +380,17 @@ PreparedProblem::distributions(int stage)
   const std::size_t i = static_cast<std::size_t>(stage - 1);
   if (coarser_distributions_.size() <= i)
     coarser_distributions_.resize(i + 1);
-  if (!coarser_distributions_[i]) {
-    const SourceSamples cubes = makeSourceSamples(
-        target_.points, std::ldexp(parameters_.effectiveRefinementResolution(), stage));
-    coarser_distributions_[i] = std::make_unique<TargetDistributions>(
-        cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * parameters_.grid.resolution);
-  }
+  if (!coarser_distributions_[i])
+    coarser_distributions_[i] = makeDistributions(makeSourceSamples(
+        target_.points, std::ldexp(parameters_.effectiveRefinementResolution(), stage)));
   return *coarser_distributions_[i];
+}
+
+std::unique_ptr<TargetDistributions>
+PreparedProblem::makeDistributions(const SourceSamples& cubes) const
+{
+  return std::make_unique<TargetDistributions>(
+      cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * parameters_.grid.resolution);
 }
 
 bool

@@ -213,6 +213,9 @@ private:
   buildSourceSamples();
   FeatureBinning
   levelBinning(double level_resolution) const;
+  /** The refinement's distributions of the target's \a cubes, at every stage alike. */
+  std::unique_ptr<TargetDistributions>
+  makeDistributions(const SourceSamples& cubes) const;
 
   Parameters requested_, parameters_;
   /** deriveResolution() of the target; 0 while not needed or without a target. */

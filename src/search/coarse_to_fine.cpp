@@ -196,13 +196,16 @@ public:
   }
 
   /** The options.scanned_starts best turns of the scan grid on \a level, best first and
-   * distinct (their evaluations booked, CoarseToFineResult::scanned_turns set). The grid is
+   * distinct, into CoarseToFineResult::scanned_turns, which it returns (the evaluations
+   * booked). The grid is
    * scored in two halves, one per evaluator, or as one batch where the costs prefer it. */
-  std::vector<Eigen::Vector2d>
+  const std::vector<Eigen::Vector2d>&
   scannedTurns(int level)
   {
+    std::vector<Eigen::Vector2d>& turns = result_.scanned_turns;
+    turns.clear();
     if (o_.scanned_starts <= 0 || o_.yaw_index < 0 || o_.pitch_index < 0)
-      return {};
+      return turns;
     std::vector<Eigen::VectorXd> grid;
     for (int a = -kScanYawSteps; a <= kScanYawSteps; ++a)
       for (int b = -kScanPitchSteps; b <= kScanPitchSteps; ++b) {
@@ -233,8 +236,6 @@ public:
                      [&](std::size_t a, std::size_t b) { return values[a] < values[b]; });
     // The guess is the grid's centre: a turn that scores no better is no lead.
     const double at_guess = values[grid.size() / 2];
-    std::vector<Eigen::Vector2d>& turns = result_.scanned_turns;
-    turns.clear();
     for (const std::size_t i : order) {
       if (static_cast<int>(turns.size()) == o_.scanned_starts || !(values[i] < at_guess))
         break;
