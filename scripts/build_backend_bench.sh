@@ -14,7 +14,7 @@ eigen=$(pkg-config --cflags eigen3 2>/dev/null || echo -I/usr/include/eigen3)
 flags=(-std=c++17 -O3 -DNDEBUG -DPCL_MI_WITH_OPENCL=1 -Iinclude -Isrc -I. $eigen -pthread)
 objs=()
 pids=()
-for src in src/engine/*.cpp src/search/*.cpp src/refine/*.cpp src/verify/*.cpp src/features/*.cpp \
+for src in src/engine/*.cpp src/search/*.cpp src/refine/*.cpp src/verify/*.cpp src/features/*.cpp src/util/*.cpp \
            src/backend/cpu_backend.cpp \
            src/backend/opencl_*.cpp src/io/kitti.cpp src/io/file_checks.cpp \
            apps/pcl_mi_backend_bench.cpp \

@@ -7,11 +7,20 @@
 #include <algorithm>
 #include <atomic>
 #include <exception>
-#include <thread>
+#include <functional>
 #include <vector>
 
 namespace pcl_mi {
 namespace core {
+
+/** \brief Runs \a work on the calling thread and on \a helpers other threads at once, and
+ * returns when every one of them has returned; \a work must not throw. The helpers are
+ * threads kept waiting between calls: an alignment splits its work dozens of times, and
+ * starting threads for each split costs about as much as a small split's work. Where the
+ * kept threads are busy (a split inside a split, or alignments on several user threads) or
+ * the process has forked, fresh threads run it, as before. */
+void
+runOnThreads(int helpers, const std::function<void()>& work);
 
 /** \brief Runs task(0) .. task(tasks - 1) on up to \a threads threads (the caller's
  * included), each thread taking the next task as it becomes free, and rethrows the first
@@ -25,7 +34,7 @@ parallelFor(int tasks, int threads, const Task& task)
   threads = std::max(1, std::min(threads, tasks));
   std::vector<std::exception_ptr> failures(static_cast<std::size_t>(std::max(tasks, 0)));
   std::atomic<int> next{0};
-  auto run = [&](int) {
+  const std::function<void()> run = [&] {
     for (int i = next++; i < tasks; i = next++) {
       try {
         task(i);
@@ -35,12 +44,10 @@ parallelFor(int tasks, int threads, const Task& task)
       }
     }
   };
-  std::vector<std::thread> pool;
-  for (int w = 1; w < threads; ++w)
-    pool.emplace_back(run, w);
-  run(0);
-  for (auto& t : pool)
-    t.join();
+  if (threads == 1)
+    run();
+  else
+    runOnThreads(threads - 1, run);
   for (const auto& f : failures)
     if (f)
       std::rethrow_exception(f);
