@@ -15,10 +15,11 @@ namespace core {
 
 /** \brief Runs \a work on the calling thread and on \a helpers other threads at once, and
  * returns when every one of them has returned; \a work must not throw. The helpers are
- * threads kept waiting between calls: an alignment splits its work dozens of times, and
- * starting threads for each split costs about as much as a small split's work. Where the
- * kept threads are busy (a split inside a split, or alignments on several user threads) or
- * the process has forked, fresh threads run it, as before. */
+ * kept between calls, polling briefly and then asleep: an alignment splits its work
+ * hundreds of times, and starting threads for each split costs about as much as a small
+ * split's work. Where the kept threads are busy (a split inside a split, or alignments on
+ * several user threads) or the process has forked since they started, fresh threads run
+ * it. */
 void
 runOnThreads(int helpers, const std::function<void()>& work);
 
