@@ -90,7 +90,7 @@ printStages(const std::vector<Row>& rows, const std::vector<std::string>& method
       for (const StageTiming& t : row.stages) {
         const int k = t.name == "prepare"        ? 0
                       : t.name == "refinement"   ? 2
-                      : t.name == "verification" ? 3
+                      : t.name == "verification" || t.name == "second optimum" ? 3
                                                  : 1; // "search ...", "restarts"
         stage[k] += t.total_ms;
       }

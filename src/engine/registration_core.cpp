@@ -10,6 +10,7 @@
 #include "engine/prepared_problem.h"
 #include "engine/refine_optimum.h"
 #include "engine/search_space.h"
+#include "engine/second_optimum.h"
 #include "features/mutual_information.h"
 #include "search/coarse_to_fine.h"
 #include "util/stage_clock.h"
@@ -22,7 +23,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <optional>
+#include <sstream>
 
 namespace pcl_mi {
 
@@ -115,18 +118,18 @@ private:
   std::vector<JointHistogram> batch_histograms_[2];
 };
 
-/** Refines the search vector \a x's pose and gives it the verdict, into \a result (whose
- * search_converged is set). Returns the normalised MI on the finest grid at the final pose,
- * by which candidates of different overlaps compare (keepTheFinestGridsChoice()). */
+/** Refines \a start (source to target) and gives the result the verdict, into \a result
+ * (whose search_converged is set). Returns the normalised MI on the finest grid at the final
+ * pose, by which candidates of different overlaps compare (keepTheFinestGridsChoice()). */
 double
-finishCandidate(core::PreparedProblem& problem,
+refineAndVerify(core::PreparedProblem& problem,
                 const core::SearchSpace& space,
-                const Eigen::VectorXd& x,
+                const Eigen::Matrix4d& start,
                 JointHistogram& scratch,
                 AlignmentResult& result)
 {
   const Parameters& p = problem.parameters();
-  result.transformation = space.pose(x);
+  result.transformation = start;
   result.refinement_iterations = 0;
   result.refinement_stages = 0;
   if (p.refinement.method == Refinement::PointToDistribution) {
@@ -155,6 +158,36 @@ finishCandidate(core::PreparedProblem& problem,
       p.num_threads);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
+  return finest_normalized_mi;
+}
+
+/** refineAndVerify() of the search vector \a x's pose; a result that passes is then looked
+ * at for a second optimum along its least constrained direction. */
+double
+finishCandidate(core::PreparedProblem& problem,
+                const core::SearchSpace& space,
+                const Eigen::VectorXd& x,
+                JointHistogram& scratch,
+                AlignmentResult& result)
+{
+  const double finest_normalized_mi = refineAndVerify(problem, space, space.pose(x), scratch, result);
+  if (!result.converged)
+    return finest_normalized_mi;
+  core::StageClock clock;
+  const std::optional<Eigen::Matrix4d> higher = core::higherAlongLeastConstrained(
+      problem, result.transformation, result.mutual_information, result.verification.covariance,
+      problem.parameters().num_threads);
+  clock.end(result.stages, "second optimum", core::kSecondOptimumProbes);
+  if (!higher)
+    return finest_normalized_mi;
+  const Eigen::Vector3d shift =
+      higher->topRightCorner<3, 1>() - result.transformation.topRightCorner<3, 1>();
+  std::ostringstream reason;
+  reason << std::fixed << std::setprecision(2) << "a second optimum: the pose moved by ("
+         << shift.x() << ", " << shift.y() << ", " << shift.z()
+         << "), along the direction the surfaces constrain least, scores a higher MI";
+  result.verification.reason = reason.str();
+  result.converged = false;
   return finest_normalized_mi;
 }
 
