@@ -175,8 +175,7 @@ finishCandidate(core::PreparedProblem& problem,
     return finest_normalized_mi;
   core::StageClock clock;
   const std::optional<Eigen::Matrix4d> higher = core::higherAlongLeastConstrained(
-      problem, result.transformation, result.mutual_information, result.verification.covariance,
-      problem.parameters().num_threads);
+      problem, result.transformation, result.mutual_information, result.verification.covariance);
   clock.end(result.stages, "second optimum", core::kSecondOptimumProbes);
   if (!higher)
     return finest_normalized_mi;

@@ -13,8 +13,8 @@
 namespace pcl_mi {
 namespace core {
 
-/** \brief Probes the MI on the finest grid at \a pose moved 1, 1.5, 2, 2.5 and 3 voxels
- * either way along the translation that \a covariance (6x6, [t, rotation], input frame)
+/** \brief Probes the MI on the finest grid at \a pose moved 1, 2 and 3 voxels either way
+ * along the translation that \a covariance (6x6, [t, rotation], input frame)
  * leaves least certain. Returns the best probe where it scores a higher MI than
  * \a mutual_information, the pose's own; none otherwise, or for a zero covariance. A scene
  * that repeats along a corridor or a row of facades has a second optimum a few metres
@@ -23,8 +23,7 @@ std::optional<Eigen::Matrix4d>
 higherAlongLeastConstrained(PreparedProblem& problem,
                             const Eigen::Matrix4d& pose,
                             double mutual_information,
-                            const Eigen::Matrix<double, 6, 6>& covariance,
-                            int num_threads);
+                            const Eigen::Matrix<double, 6, 6>& covariance);
 
 /** \brief Number of poses higherAlongLeastConstrained() evaluates. */
 constexpr int kSecondOptimumProbes = 6;
