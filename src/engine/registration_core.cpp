@@ -170,7 +170,8 @@ finishCandidate(core::PreparedProblem& problem,
                 JointHistogram& scratch,
                 AlignmentResult& result)
 {
-  const double finest_normalized_mi = refineAndVerify(problem, space, space.pose(x), scratch, result);
+  const double finest_normalized_mi =
+      refineAndVerify(problem, space, space.pose(x), scratch, result);
   if (!result.converged)
     return finest_normalized_mi;
   core::StageClock clock;
