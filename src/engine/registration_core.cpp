@@ -118,18 +118,40 @@ private:
   std::vector<JointHistogram> batch_histograms_[2];
 };
 
-/** Refines \a start (source to target) and gives the result the verdict, into \a result
- * (whose search_converged is set). Returns the normalised MI on the finest grid at the final
- * pose, by which candidates of different overlaps compare (keepTheFinestGridsChoice()). */
+/** Takes the trust from \a result, which passed the reliability test, where a pose a few
+ * voxels along its least constrained direction scores a higher MI on the finest grid
+ * (core::higherAlongLeastConstrained()). */
+void
+refuseASecondOptimum(core::PreparedProblem& problem, AlignmentResult& result)
+{
+  core::StageClock clock;
+  const std::optional<Eigen::Matrix4d> higher = core::higherAlongLeastConstrained(
+      problem, result.transformation, result.mutual_information, result.verification.covariance);
+  clock.end(result.stages, "second optimum", core::kSecondOptimumProbes);
+  if (!higher)
+    return;
+  const Eigen::Vector3d shift =
+      higher->topRightCorner<3, 1>() - result.transformation.topRightCorner<3, 1>();
+  std::ostringstream reason;
+  reason << std::fixed << std::setprecision(2) << "a second optimum: the pose moved by ("
+         << shift.x() << ", " << shift.y() << ", " << shift.z()
+         << "), along the direction the surfaces constrain least, scores a higher MI";
+  result.verification.reason = reason.str();
+  result.converged = false;
+}
+
+/** Refines the search vector \a x's pose and gives it the verdict, into \a result (whose
+ * search_converged is set). Returns the normalised MI on the finest grid at the final pose,
+ * by which candidates of different overlaps compare (keepTheFinestGridsChoice()). */
 double
-refineAndVerify(core::PreparedProblem& problem,
+finishCandidate(core::PreparedProblem& problem,
                 const core::SearchSpace& space,
-                const Eigen::Matrix4d& start,
+                const Eigen::VectorXd& x,
                 JointHistogram& scratch,
                 AlignmentResult& result)
 {
   const Parameters& p = problem.parameters();
-  result.transformation = start;
+  result.transformation = space.pose(x);
   result.refinement_iterations = 0;
   result.refinement_stages = 0;
   if (p.refinement.method == Refinement::PointToDistribution) {
@@ -158,36 +180,8 @@ refineAndVerify(core::PreparedProblem& problem,
       p.num_threads);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
-  return finest_normalized_mi;
-}
-
-/** refineAndVerify() of the search vector \a x's pose; a result that passes is then looked
- * at for a second optimum along its least constrained direction. */
-double
-finishCandidate(core::PreparedProblem& problem,
-                const core::SearchSpace& space,
-                const Eigen::VectorXd& x,
-                JointHistogram& scratch,
-                AlignmentResult& result)
-{
-  const double finest_normalized_mi =
-      refineAndVerify(problem, space, space.pose(x), scratch, result);
-  if (!result.converged)
-    return finest_normalized_mi;
-  core::StageClock clock;
-  const std::optional<Eigen::Matrix4d> higher = core::higherAlongLeastConstrained(
-      problem, result.transformation, result.mutual_information, result.verification.covariance);
-  clock.end(result.stages, "second optimum", core::kSecondOptimumProbes);
-  if (!higher)
-    return finest_normalized_mi;
-  const Eigen::Vector3d shift =
-      higher->topRightCorner<3, 1>() - result.transformation.topRightCorner<3, 1>();
-  std::ostringstream reason;
-  reason << std::fixed << std::setprecision(2) << "a second optimum: the pose moved by ("
-         << shift.x() << ", " << shift.y() << ", " << shift.z()
-         << "), along the direction the surfaces constrain least, scores a higher MI";
-  result.verification.reason = reason.str();
-  result.converged = false;
+  if (result.converged)
+    refuseASecondOptimum(problem, result);
   return finest_normalized_mi;
 }
 

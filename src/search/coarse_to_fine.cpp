@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <sstream>
 
 namespace pcl_mi {
@@ -197,8 +198,8 @@ public:
 
   /** The options.scanned_starts best turns of the scan grid on \a level, best first and
    * distinct, into CoarseToFineResult::scanned_turns, which it returns (the evaluations
-   * booked). The grid is
-   * scored in two halves, one per evaluator, or as one batch where the costs prefer it. */
+   * booked). The grid is scored in two halves, one per evaluator, or as one batch where the
+   * costs prefer it. */
   const std::vector<Eigen::Vector2d>&
   scannedTurns(int level)
   {
@@ -230,8 +231,7 @@ public:
     }
     result_.evaluations += static_cast<int>(grid.size());
     std::vector<std::size_t> order(grid.size());
-    for (std::size_t i = 0; i < order.size(); ++i)
-      order[i] = i;
+    std::iota(order.begin(), order.end(), std::size_t{0});
     std::stable_sort(order.begin(), order.end(),
                      [&](std::size_t a, std::size_t b) { return values[a] < values[b]; });
     // The guess is the grid's centre: a turn that scores no better is no lead.

@@ -21,22 +21,22 @@ namespace {
  * waking a sleeping thread costs about as long as such a split. */
 constexpr std::chrono::microseconds kPollTime{50};
 
-/** Polls \a ready for up to kPollTime; true when it turned true. */
+/** Polls \a ready until it turns true or kPollTime has passed; the caller then waits on
+ * its condition variable either way. */
 template <typename Ready>
-bool
+void
 pollFor(const Ready& ready)
 {
   const auto until = std::chrono::steady_clock::now() + kPollTime;
   while (!ready()) {
     if (std::chrono::steady_clock::now() >= until)
-      return false;
+      return;
 #if defined(__x86_64__) || defined(__i386__)
     __builtin_ia32_pause();
 #elif defined(__aarch64__)
     asm volatile("yield");
 #endif
   }
-  return true;
 }
 
 /** Threads that wait for work between calls, one job at a time. The job and its counts
