@@ -141,15 +141,14 @@ private:
   const double base_;
 };
 
-/** The share of the inliers \a lost one voxel (\a step) along each axis, or turned by
- * \a turn about it, either way: their mean is the peak contrast, their least the weakest. */
-void
-probeContrast(const InlierProbe& probe, double step, double turn, double lost[6])
+/** The share of the inliers lost one voxel (\a step) along \a axis (0-2), or turned by
+ * \a turn about it (3-5), either way: over the six, their mean is the peak contrast, their
+ * least the weakest. */
+double
+probeAxis(const InlierProbe& probe, int axis, double step, double turn)
 {
-  for (int axis = 0; axis < 6; ++axis)
-    lost[axis] = axis < 3 ? probe.lostEitherWay(Eigen::Vector3d::Zero(),
-                                                step * Eigen::Vector3d::Unit(axis))
-                          : probe.lostTurningEitherWay(axis - 3, turn);
+  return axis < 3 ? probe.lostEitherWay(Eigen::Vector3d::Zero(), step * Eigen::Vector3d::Unit(axis))
+                  : probe.lostTurningEitherWay(axis - 3, turn);
 }
 
 /** Observability and covariance from the point-to-plane information of \a at; the
@@ -232,17 +231,19 @@ verifyPose(const TargetDistributions& target,
            int num_threads)
 {
   Verification v;
-  // The evidence at the result and the contrast probes are independent: one thread each.
-  // Every count and sum is its own task's, so the figures do not depend on the threads.
+  // The evidence at the result and the contrast probes are independent tasks. Every count
+  // and sum is its own task's, so the figures do not depend on the threads.
   PoseEvidence at;
   const double radius = std::max(rmsRadius(source), resolution);
   const InlierProbe probe(target, source, rotation, translation);
   double contrast[6] = {0, 0, 0, 0, 0, 0};
-  parallelFor(2, num_threads, [&](int task) {
+  // The full gather is the longest task: it goes first, and the six axes' probes fill the
+  // other thread and then whichever is free.
+  parallelFor(7, num_threads, [&](int task) {
     if (task == 0)
       at = gatherPoseEvidence(target, source, rotation, translation, 1, true);
     else
-      probeContrast(probe, resolution, resolution / radius, contrast);
+      contrast[task - 1] = probeAxis(probe, task - 1, resolution, resolution / radius);
   });
   v.peak_contrast = (contrast[0] + contrast[1] + contrast[2] + contrast[3] + contrast[4] +
                      contrast[5]) /
