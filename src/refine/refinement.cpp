@@ -33,13 +33,9 @@ packCell(std::uint64_t x, std::uint64_t y, std::uint64_t z)
 std::uint64_t
 mix(std::uint64_t key)
 {
-  // splitmix64's finaliser: spreads the packed cell coordinates over the table.
-  key ^= key >> 30;
-  key *= 0xbf58476d1ce4e5b9ULL;
-  key ^= key >> 27;
-  key *= 0x94d049bb133111ebULL;
-  key ^= key >> 31;
-  return key;
+  // A multiply by 2^64 / golden ratio, folded so the low bits see the high ones.
+  key *= 0x9E3779B97F4A7C15ULL;
+  return key ^ (key >> 32);
 }
 
 /** Lever arm (m) that makes a rotation step comparable with a translation step. */
