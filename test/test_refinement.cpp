@@ -82,6 +82,36 @@ TEST(SourceSamplePyramid, MergedLevelsMatchDirectSummaries)
   }
 }
 
+TEST(Refinement, NormalEquationsByBlocksEqualTheDenseProducts)
+{
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Eigen::Vector3f q(20.0f * u(rng), 20.0f * u(rng), 3.0f * u(rng));
+    const Eigen::Vector3f e(u(rng), u(rng), u(rng));
+    Eigen::Matrix3f m;
+    for (int i = 0; i < 9; ++i)
+      m(i / 3, i % 3) = u(rng);
+    const Eigen::Matrix3f information = m * m.transpose() + 0.1f * Eigen::Matrix3f::Identity();
+    const float w = 0.5f + 0.5f * u(rng);
+    // The residual's Jacobian for xi = [omega, delta]: [-[q]x, I].
+    Eigen::Matrix<float, 3, 6> j;
+    j << 0.0f, q.z(), -q.y(), 1.0f, 0.0f, 0.0f, //
+        -q.z(), 0.0f, q.x(), 0.0f, 1.0f, 0.0f,  //
+        q.y(), -q.x(), 0.0f, 0.0f, 0.0f, 1.0f;
+    const Eigen::Matrix<float, 6, 6> dense_h = w * j.transpose() * information * j;
+    const Eigen::Matrix<float, 6, 1> dense_g = w * j.transpose() * information * e;
+    Eigen::Matrix<float, 6, 6> h = Eigen::Matrix<float, 6, 6>::Zero();
+    Eigen::Matrix<float, 6, 1> g = Eigen::Matrix<float, 6, 1>::Zero();
+    pcl_mi::core::addToNormalEquations(q, e, information, w, h, g);
+    h.bottomLeftCorner<3, 3>() = h.topRightCorner<3, 3>().transpose();
+    const float scale = dense_h.cwiseAbs().maxCoeff();
+    EXPECT_LT((h - dense_h).cwiseAbs().maxCoeff(), 1e-5f * scale) << "trial " << trial;
+    EXPECT_LT((g - dense_g).cwiseAbs().maxCoeff(), 1e-5f * dense_g.cwiseAbs().maxCoeff() + 1e-6f)
+        << "trial " << trial;
+  }
+}
+
 TEST(Refinement, RecoversAKnownOffsetOfARealScan)
 {
   const PointList points = bundledScan();

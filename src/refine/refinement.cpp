@@ -261,6 +261,29 @@ TargetDistributions::find(const Eigen::Vector3f& p) const
   return inside ? findSlot(table_, mask_, key) : -1;
 }
 
+void
+addToNormalEquations(const Eigen::Vector3f& q,
+                     const Eigen::Vector3f& e,
+                     const Eigen::Matrix3f& information,
+                     float w,
+                     Eigen::Matrix<float, 6, 6>& h,
+                     Eigen::Matrix<float, 6, 1>& g)
+{
+  // By blocks, [q]x A (-[q]x), [q]x A and A, and q x (A e) and A e: a third of the
+  // multiplies of the dense 3x6 products.
+  const Eigen::Vector3f v = information * e;
+  Eigen::Matrix3f skew;
+  skew << 0.0f, -q.z(), q.y(), //
+      q.z(), 0.0f, -q.x(),     //
+      -q.y(), q.x(), 0.0f;
+  const Eigen::Matrix3f b = skew * information;
+  h.topLeftCorner<3, 3>().noalias() -= w * (b * skew);
+  h.topRightCorner<3, 3>().noalias() += w * b;
+  h.bottomRightCorner<3, 3>().noalias() += w * information;
+  g.head<3>().noalias() += w * q.cross(v);
+  g.tail<3>().noalias() += w * v;
+}
+
 RefinementResult
 refineToDistributions(const TargetDistributions& target,
                       const SourceSamples& source,
@@ -305,23 +328,10 @@ refineToDistributions(const TargetDistributions& target,
         const float m = e.dot(info * e);
         // Cauchy weight: residuals far beyond the kernel scale barely pull.
         const float w = 1.0f / (1.0f + m / c2);
-        // Residual e(xi) = exp(xi) q - mean with left increment xi = [omega, delta]:
-        // J = de/dxi = [-[q]x, I]. With A = info, J^T A J and J^T A e have the blocks
-        // [q]x A (-[q]x), [q]x A and A, and q x (A e) and A e, which cost a third of the
-        // dense 3x6 products; the lower left block is mirrored once per chunk.
-        const Eigen::Vector3f v = info * e;
-        Eigen::Matrix3f skew;
-        skew << 0.0f, -q.z(), q.y(), //
-            q.z(), 0.0f, -q.x(),     //
-            -q.y(), q.x(), 0.0f;
-        const Eigen::Matrix3f b = skew * info;
-        p.h.topLeftCorner<3, 3>().noalias() -= w * (b * skew);
-        p.h.topRightCorner<3, 3>().noalias() += w * b;
-        p.h.bottomRightCorner<3, 3>().noalias() += w * info;
-        p.g.head<3>().noalias() += w * q.cross(v);
-        p.g.tail<3>().noalias() += w * v;
+        addToNormalEquations(q, e, info, w, p.h, p.g);
         ++p.matched;
       }
+      // addToNormalEquations() leaves the lower left block to the caller.
       p.h.bottomLeftCorner<3, 3>() = p.h.topRightCorner<3, 3>().transpose();
     });
     Matrix6d h = Matrix6d::Zero();

@@ -111,6 +111,18 @@ struct RefinementResult {
   bool converged = false;
 };
 
+/** \brief Adds one sample's share, weighted by \a w, to the Gauss-Newton normal equations
+ * \a h (J^T A J) and \a g (J^T A e) of the residual e = exp(xi) q - mean, with the left
+ * increment xi = [omega, delta], its Jacobian J = [-[q]x, I] and A = \a information. Only
+ * the upper right of the two off-diagonal blocks is written: the caller mirrors it. */
+void
+addToNormalEquations(const Eigen::Vector3f& q,
+                     const Eigen::Vector3f& e,
+                     const Eigen::Matrix3f& information,
+                     float w,
+                     Eigen::Matrix<float, 6, 6>& h,
+                     Eigen::Matrix<float, 6, 1>& g);
+
 /** \brief Gauss-Newton minimisation of the robust point-to-distribution distance of the
  * source samples (moved by rotation, translation from the source's into the target's local
  * frame) to the target distribution of the cube each one falls into. Every sample weighs
