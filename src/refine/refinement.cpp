@@ -261,29 +261,6 @@ TargetDistributions::find(const Eigen::Vector3f& p) const
   return inside ? findSlot(table_, mask_, key) : -1;
 }
 
-void
-addToNormalEquations(const Eigen::Vector3f& q,
-                     const Eigen::Vector3f& e,
-                     const Eigen::Matrix3f& information,
-                     float w,
-                     Eigen::Matrix<float, 6, 6>& h,
-                     Eigen::Matrix<float, 6, 1>& g)
-{
-  // By blocks, [q]x A (-[q]x), [q]x A and A, and q x (A e) and A e: a third of the
-  // multiplies of the dense 3x6 products.
-  const Eigen::Vector3f v = information * e;
-  Eigen::Matrix3f skew;
-  skew << 0.0f, -q.z(), q.y(), //
-      q.z(), 0.0f, -q.x(),     //
-      -q.y(), q.x(), 0.0f;
-  const Eigen::Matrix3f b = skew * information;
-  h.topLeftCorner<3, 3>().noalias() -= w * (b * skew);
-  h.topRightCorner<3, 3>().noalias() += w * b;
-  h.bottomRightCorner<3, 3>().noalias() += w * information;
-  g.head<3>().noalias() += w * q.cross(v);
-  g.tail<3>().noalias() += w * v;
-}
-
 RefinementResult
 refineToDistributions(const TargetDistributions& target,
                       const SourceSamples& source,

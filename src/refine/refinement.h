@@ -9,6 +9,7 @@
 #include <pcl_mi/types.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cstdint>
 #include <vector>
@@ -114,14 +115,30 @@ struct RefinementResult {
 /** \brief Adds one sample's share, weighted by \a w, to the Gauss-Newton normal equations
  * \a h (J^T A J) and \a g (J^T A e) of the residual e = exp(xi) q - mean, with the left
  * increment xi = [omega, delta], its Jacobian J = [-[q]x, I] and A = \a information. Only
- * the upper right of the two off-diagonal blocks is written: the caller mirrors it. */
-void
+ * the upper right of the two off-diagonal blocks is written: the caller mirrors it. Inline:
+ * the refinement calls it for every sample. */
+inline void
 addToNormalEquations(const Eigen::Vector3f& q,
                      const Eigen::Vector3f& e,
                      const Eigen::Matrix3f& information,
                      float w,
                      Eigen::Matrix<float, 6, 6>& h,
-                     Eigen::Matrix<float, 6, 1>& g);
+                     Eigen::Matrix<float, 6, 1>& g)
+{
+  // By blocks, [q]x A (-[q]x), [q]x A and A, and q x (A e) and A e: a third of the
+  // multiplies of the dense 3x6 products.
+  const Eigen::Vector3f v = information * e;
+  Eigen::Matrix3f skew;
+  skew << 0.0f, -q.z(), q.y(), //
+      q.z(), 0.0f, -q.x(),     //
+      -q.y(), q.x(), 0.0f;
+  const Eigen::Matrix3f b = skew * information;
+  h.topLeftCorner<3, 3>().noalias() -= w * (b * skew);
+  h.topRightCorner<3, 3>().noalias() += w * b;
+  h.bottomRightCorner<3, 3>().noalias() += w * information;
+  g.head<3>().noalias() += w * q.cross(v);
+  g.tail<3>().noalias() += w * v;
+}
 
 /** \brief Gauss-Newton minimisation of the robust point-to-distribution distance of the
  * source samples (moved by rotation, translation from the source's into the target's local
