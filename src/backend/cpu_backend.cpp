@@ -33,6 +33,7 @@ public:
     target_ = std::move(target);
     // One spare cell past the grid collects the samples outside it.
     moments_ = core::ZeroedArray<core::VoxelMoments>(target_->geometry.cellCount() + 1);
+    moments_.returnsZeroed(); // clearTouched() ends every compute()
     touched_.clear();
   }
 

@@ -298,6 +298,10 @@ buildTargetGrid(const PointList& points,
                              static_cast<std::int32_t>(cell / row % g.dims.y()),
                              static_cast<std::int32_t>(cell / slice), bin});
   }
+  // Cleared, the moments' memory can serve the next grid as it is.
+  for (const std::uint32_t cell : occupied_cells)
+    moments[cell] = VoxelMoments{};
+  moments.returnsZeroed();
   return true;
 }
 
