@@ -229,6 +229,21 @@ BM_AlignPcl(benchmark::State& state)
 }
 BENCHMARK(BM_AlignPcl)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+/** The engine alone (pcl_mi::RegistrationCore), a new one per alignment, from point lists. */
+void
+BM_AlignCoreFresh(benchmark::State& state)
+{
+  const Pair& p = pair();
+  for (auto _ : state) {
+    pcl_mi::RegistrationCore core;
+    core.setTarget(p.target_points);
+    core.setSource(p.source_points);
+    if (!core.align(Eigen::Matrix4d::Identity()).converged)
+      state.SkipWithError("not converged");
+  }
+}
+BENCHMARK(BM_AlignCoreFresh)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 /** One object for a sequence of pairs: both clouds are set anew before every alignment. */
 void
 BM_AlignReusedObject(benchmark::State& state)
