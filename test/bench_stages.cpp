@@ -212,6 +212,20 @@ BM_Verification(benchmark::State& state)
 }
 BENCHMARK(BM_Verification)->Unit(benchmark::kMillisecond);
 
+/** Hands both clouds of \a p to \a reg as PCL clouds and aligns them. */
+void
+alignPclPair(pcl::MutualInformationRegistration<pcl::PointXYZI>& reg,
+             const Pair& p,
+             Cloud& output,
+             benchmark::State& state)
+{
+  reg.setInputSource(p.source);
+  reg.setInputTarget(p.target);
+  reg.align(output);
+  if (!reg.hasConverged())
+    state.SkipWithError("not converged");
+}
+
 /** The whole alignment through the PCL adapter, both clouds handed over as PCL clouds. */
 void
 BM_AlignPcl(benchmark::State& state)
@@ -220,11 +234,7 @@ BM_AlignPcl(benchmark::State& state)
   Cloud output;
   for (auto _ : state) {
     pcl::MutualInformationRegistration<pcl::PointXYZI> reg;
-    reg.setInputSource(p.source);
-    reg.setInputTarget(p.target);
-    reg.align(output);
-    if (!reg.hasConverged())
-      state.SkipWithError("not converged");
+    alignPclPair(reg, p, output, state);
   }
 }
 BENCHMARK(BM_AlignPcl)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -251,13 +261,8 @@ BM_AlignReusedObject(benchmark::State& state)
   const Pair& p = pair();
   Cloud output;
   pcl::MutualInformationRegistration<pcl::PointXYZI> reg;
-  for (auto _ : state) {
-    reg.setInputSource(p.source);
-    reg.setInputTarget(p.target);
-    reg.align(output);
-    if (!reg.hasConverged())
-      state.SkipWithError("not converged");
-  }
+  for (auto _ : state)
+    alignPclPair(reg, p, output, state);
 }
 BENCHMARK(BM_AlignReusedObject)->Unit(benchmark::kMillisecond)->UseRealTime();
 
