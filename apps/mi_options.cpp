@@ -72,8 +72,9 @@ miOptionTable(MiOptionSet set)
               "result is not trusted (default %g; 0 = none)",
               d.search.second_search_headings)},
       {"-leveling", V::Text, "-leveling on|off",
-       "start a 360-degree pair's search leveled where the clouds' up directions\n"
-       "disagree by more than 5 deg, as for a sensor carried tilted (default on)"},
+       "search a 360-degree pair along the target's up where the clouds' up\n"
+       "directions disagree by more than 5 deg (a sensor carried tilted) or agree\n"
+       "on one more than 5 deg from z (a sensor mounted tilted) (default on)"},
       {"-coarse_nmi", V::Text, "-coarse_nmi on|off",
        "search the coarsest pyramid level on normalised MI, which the overlap a\n"
        "far search moves through does not bias (default on; off = MI everywhere)"},

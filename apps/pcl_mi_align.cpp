@@ -315,7 +315,7 @@ run(int argc, char** argv)
   }
   if (reg.getLastResult().leveled) {
     print_info("Leveled: ");
-    print_value("yes (the search started with the clouds' up directions made to agree)\n");
+    print_value("yes (the search ran along the target's up direction)\n");
   }
   if (reg.getLastResult().runners_up_checked > 0) {
     print_info("Runners-up of the search checked: ");

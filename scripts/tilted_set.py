@@ -4,10 +4,12 @@ source scan is turned about its sensor (the origin of its frame) by a random rol
 (each uniform in +-TILT deg) and yaw (uniform in +-YAW deg), and the row's reference
 follows, so the rows' pairs are those of the list, seen by a tilted sensor. With --both,
 each row's target is turned too, by its own random roll and pitch (no yaw), as a sensor
-carried by hand tilts for every scan.
+carried by hand tilts for every scan. With --mounted ROLL,PITCH, every scan of every row is
+turned by that one roll and pitch instead, as a sensor mounted tilted on its vehicle sees
+the same places: the pairs' up directions agree and both lie off the sensor's z.
 
 usage: tilted_set.py LIST OUT_DIR [--tilt 30] [--yaw 90] [--seed 1] [--stride 1] [--both]
-                      [--repeat 1]
+                      [--repeat 1] [--mounted ROLL,PITCH]
 
 LIST is a `pcl_mi_compare -list` file whose scans are KITTI-style .bin files (float32 x y
 z intensity). OUT_DIR gets scans/ (the turned sources, and links to the targets) and
@@ -45,7 +47,12 @@ def main():
     parser.add_argument("--both", action="store_true", help="turn each row's target too")
     parser.add_argument("--repeat", type=int, default=1,
                         help="each row REPEAT times, each with its own turns (a set of one pair)")
+    parser.add_argument("--mounted", help="ROLL,PITCH (deg): turn every scan by this one tilt")
     args = parser.parse_args()
+    mounted = None
+    if args.mounted:
+        roll, pitch = (float(v) for v in args.mounted.split(","))
+        mounted = rotation(roll, pitch, 0.0)
     rng = np.random.default_rng(args.seed)
     base = os.path.dirname(os.path.abspath(args.list))
     os.makedirs(os.path.join(args.out, "scans"), exist_ok=True)
@@ -62,7 +69,9 @@ def main():
         turn = rotation(rng.uniform(-args.tilt, args.tilt), rng.uniform(-args.tilt, args.tilt),
                         rng.uniform(-args.yaw, args.yaw))
         target_turn = np.eye(3)
-        if args.both:
+        if mounted is not None:
+            turn = target_turn = mounted
+        elif args.both:
             target_turn = rotation(rng.uniform(-args.tilt, args.tilt),
                                    rng.uniform(-args.tilt, args.tilt), 0.0)
         if k % args.stride:
@@ -73,7 +82,7 @@ def main():
         reference[:3] = numbers[:12].reshape(3, 4)
         name = "scans/source_%05d.bin" % k
         turned_copy(source, turn, name)
-        if args.both:
+        if args.both or mounted is not None:
             target_name = "scans/target_%05d.bin" % k
             turned_copy(target, target_turn, target_name)
         else:

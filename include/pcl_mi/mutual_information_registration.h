@@ -319,10 +319,11 @@ public:
     return core_.parameters().search.second_search_headings;
   }
 
-  /** \brief Start the search of a 360-degree pair from the guess turned so that the two
-   * clouds' up directions (from their horizontal surfaces) agree, where they disagree by
-   * more than 5 degrees: a sensor carried tilted (default true;
-   * pcl_mi::SearchParameters::leveling). getLastResult().leveled says whether it did. */
+  /** \brief Search a 360-degree pair along the target's up direction (from its horizontal
+   * surfaces), starting from the guess turned so that the two clouds' ups agree where they
+   * disagree by more than 5 degrees (a sensor carried tilted), and from the guess itself
+   * where they agree on an up more than 5 degrees from z (a sensor mounted tilted) (default
+   * true; pcl_mi::SearchParameters::leveling). getLastResult().leveled says whether it did. */
   void
   setLeveling(bool leveling)
   {

@@ -179,9 +179,11 @@ struct SearchParameters {
    * from their horizontal surfaces (ground, floor, ceiling), disagree under the guess by
    * more than 5 degrees, both searches start from the guess turned about the source's
    * centroid so that they agree, and search along the target's up
-   * (AlignmentResult::leveled); and a target tilted by more than 5 degrees is voxelised in
-   * a frame turned level, so that its z-variance feature is taken along up. A sensor
-   * carried or mounted tilted is where the simplex alone fails to find roll and pitch;
+   * (AlignmentResult::leveled), as they do where the two agree on an up more than
+   * 5 degrees from the target's z; and a target tilted by more than 5 degrees is voxelised
+   * in a frame turned level, so that its z-variance feature is taken along up. A sensor
+   * carried or mounted tilted is where the simplex alone fails to find roll and pitch, or
+   * moves across the ground along its own tilted axes;
    * scans taken level never meet the conditions (docs/method.md, "Leveling"). Unlike the
    * other search fields, a change rebuilds the target. Off when a parameter is pinned (a
    * zero simplex step), since pins are meant along the target's own axes. */

@@ -171,9 +171,11 @@ struct AlignmentResult {
   /** The wider second search ran (SearchParameters::second_search_headings); where it found
    * the result, runner_up_kept is true too. */
   bool second_search = false;
-  /** The search started from the guess turned so that the two clouds' up directions, read
-   * from their horizontal surfaces, agree: they disagreed under the guess by more than
-   * 5 degrees, as between scans of a sensor carried tilted (SearchParameters::leveling). */
+  /** The search ran along the target's up direction, read from its horizontal surfaces
+   * (SearchParameters::leveling): the two clouds' ups disagreed under the guess by more than
+   * 5 degrees, as between scans of a sensor carried tilted, and the search started from the
+   * guess turned so that they agree; or they agree on an up more than 5 degrees from the
+   * target's z, as for a sensor mounted tilted, and the guess needed no turn. */
   bool leveled = false;
   /** Mutual information (nats) at the final transformation. */
   double mutual_information = 0.0;

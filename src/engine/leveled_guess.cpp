@@ -47,9 +47,16 @@ levelGuess(const std::optional<Eigen::Vector3d>& source_up,
     return std::nullopt;
   const Eigen::Vector3d& up = *target_up;
   const Eigen::Vector3d moved = guess.topLeftCorner<3, 3>() * *source_up;
-  if (!apartBeyondLeveling(moved, up))
-    return std::nullopt;
   Leveling leveling;
+  if (!apartBeyondLeveling(moved, up)) {
+    // Agreeing ups need no turn, but a sensor mounted tilted still moves along the ground
+    // and turns about up, not along and about its own axes.
+    if (!apartBeyondLeveling(up, Eigen::Vector3d::UnitZ()))
+      return std::nullopt;
+    leveling.guess = guess;
+    leveling.axes = levelAxes(up);
+    return leveling;
+  }
   Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
   turn.topLeftCorner<3, 3>() = Eigen::Quaterniond::FromTwoVectors(moved, up).toRotationMatrix();
   turn.topRightCorner<3, 1>() = pivot - turn.topLeftCorner<3, 3>() * pivot;

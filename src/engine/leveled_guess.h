@@ -45,7 +45,9 @@ levelAxes(const Eigen::Vector3d& up);
 
 /** \brief The leveling of \a guess about \a pivot (target frame) by the least rotation that
  * takes the source's up direction \a source_up, as the guess moves it, onto the target's
- * \a target_up; nothing where either is unknown or the two agree within kLevelingDegrees. */
+ * \a target_up. Where the two agree within kLevelingDegrees, the guess as it is with level
+ * axes if \a target_up lies more than that from the frame's z (a sensor mounted tilted),
+ * nothing otherwise; nothing where either is unknown. */
 std::optional<Leveling>
 levelGuess(const std::optional<Eigen::Vector3d>& source_up,
            const std::optional<Eigen::Vector3d>& target_up,

@@ -314,6 +314,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   const Eigen::Vector3d pivot = (guess * turned_about.homogeneous()).head<3>();
   // A 360-degree pair whose up directions disagree is searched from the guess leveled, along
   // the target's up: a tilted sensor's roll and pitch are what the simplex finds least well.
+  // A pair that agrees on an up far from z (a sensor mounted tilted) is searched along it too.
   const std::optional<core::Leveling> leveled =
       core::levelingApplies(p) && !narrow_view
           ? core::levelGuess(problem.sourceUp(), problem.targetUp(), guess, pivot)
