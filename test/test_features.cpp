@@ -373,8 +373,11 @@ turnedRoom(const Eigen::Matrix3f& turn, bool floor_and_ceiling)
 
 TEST(UpDirection, FindsTheFloorOfATiltedRoomAndNotItsWalls)
 {
-  for (const auto& [roll, pitch] : {std::make_pair(0.0f, 0.0f), std::make_pair(30.0f, -20.0f),
-                                    std::make_pair(-40.0f, 25.0f)}) {
+  // Up to 65 deg of tilt: a sensor mounted pitched steeply sees its ground 65 deg off its z,
+  // and walls that its tilt brings nearer its z than the floor.
+  for (const auto& [roll, pitch] :
+       {std::make_pair(0.0f, 0.0f), std::make_pair(30.0f, -20.0f), std::make_pair(-40.0f, 25.0f),
+        std::make_pair(0.0f, 65.0f), std::make_pair(-45.0f, 40.0f)}) {
     SCOPED_TRACE(testing::Message() << "roll " << roll << ", pitch " << pitch);
     const Eigen::Matrix3f turn =
         (Eigen::AngleAxisf(pitch * static_cast<float>(M_PI) / 180.0f, Eigen::Vector3f::UnitY()) *

@@ -19,7 +19,7 @@ constexpr std::uint32_t kMinimumCellPoints = 5;
 /** A cell is planar when its least variance is under this share of the middle one. */
 constexpr double kPlanarRatio = 0.05;
 /** Cone about the frame's +z within which up is looked for (degrees). */
-constexpr double kConeDegrees = 60.0;
+constexpr double kConeDegrees = 75.0;
 /** Half-width of a family of parallel planes (degrees). */
 constexpr double kFamilyDegrees = 10.0;
 /** Fewest planar cells within the cone, and in the family, for an answer. */

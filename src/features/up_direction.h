@@ -16,14 +16,15 @@ namespace core {
 
 /** \brief The normal shared by the most planar cells of \a cells (a makeSourceSamples()
  * summary with covariances; at most 8192 of them, evenly spread, are looked at) among the
- * normals within 60 degrees of the frame's +z, refined
+ * normals within 75 degrees of the frame's +z, refined
  * as the principal direction of those within 10 degrees of it; pointing to +z. Nothing
  * where fewer than 20 planar cells lie in that cone.
  *
  * A scan's largest family of parallel planes within that cone is its ground, or its floor
- * and ceiling: walls lie near 90 degrees from up while a sensor is tilted by less than
- * about 45 degrees. The normal counts once per cell, so surfaces weigh by their area, not by
- * how densely the sensor sampled them. */
+ * and ceiling, for a sensor tilted by up to about 70 degrees. Each wall orientation is a
+ * family of its own, which a tilt of more than 15 degrees brings into the cone, but the
+ * normal counts once per cell, so surfaces weigh by their area, not by how densely the
+ * sensor sampled them, and the ground outweighs each. */
 std::optional<Eigen::Vector3d>
 estimateUpDirection(const SourceSamples& cells);
 
