@@ -20,10 +20,10 @@ namespace pcl_mi {
 bool
 openClAvailable(std::string* reason = nullptr);
 
-/** \brief Why \a result (of an align() that did not fail) is not converged, as one clause:
- * the reliability test's reason, or how the iteration cap \a max_iterations ended the search,
- * named as the caller sets it (\a cap_name, e.g. "setMaximumIterations(2000)"). Empty when
- * it converged. */
+/** \brief Why \a result (of an align() that did not fail) is not converged: the reliability
+ * test's reason, how the iteration cap \a max_iterations ended the search, named as the
+ * caller sets it (\a cap_name, e.g. "setMaximumIterations(2000)"), or both, the test's
+ * first. Empty when it converged. */
 std::string
 notConvergedCause(const AlignmentResult& result, int max_iterations, const std::string& cap_name);
 

@@ -457,18 +457,22 @@ notConvergedCause(const AlignmentResult& result, int max_iterations, const std::
 {
   if (result.converged)
     return {};
+  const std::string& evidence = result.verification.reason;
   if (result.search_converged)
-    return result.verification.reason;
+    return evidence;
   const std::string cap = "(" + cap_name + ")";
-  if (result.runner_up_kept)
-    return "the result is a runner-up of the search, kept because the finest grid prefers it "
-           "to an untrusted best, and its search was capped at a candidate's share of the "
-           "iteration cap " +
-           cap + " before the simplex met its tolerances";
-  return (result.iterations >= max_iterations
-              ? "the iteration cap " + cap + " ended the search"
-              : "the best search stopped at its share of the iteration cap " + cap) +
-         " before the simplex met its tolerances";
+  const std::string search =
+      result.runner_up_kept
+          ? "the result is a runner-up of the search, kept because the finest grid prefers it "
+            "to an untrusted best, and its search was capped at a candidate's share of the "
+            "iteration cap " +
+                cap + " before the simplex met its tolerances"
+          : (result.iterations >= max_iterations
+                 ? "the iteration cap " + cap + " ended the search"
+                 : "the best search stopped at its share of the iteration cap " + cap) +
+                " before the simplex met its tolerances";
+  // What the scene says first: more iterations would not change it.
+  return evidence.empty() ? search : evidence + "; and " + search;
 }
 
 bool
