@@ -8,13 +8,16 @@ scan, K = 4 a 16-ring one (about 1.7 deg between rings, close to a VLP-16's 2 de
 
 usage: kitti_ring_subset.py KITTI_ROOT K OUT_DIR [--sequences 00,01,02,05,08]
                             [--distance 1,10] [--max-yaw 20] [--poses semantic|gt]
-                            [--scale S] [--fov DEG]
+                            [--scale S] [--fov DEG] [--voxel M]
 
 --scale S multiplies every coordinate and the reference translations by S (e.g. 1000 for
 millimetres, 0.1 for a scene the size of a room), to check that an alignment at resolution
 S (and simplex steps times S) is the same as at 1 m; --distance stays in metres before scaling.
 --fov DEG keeps only the points within DEG/2 of azimuth of straight ahead (+x), as a
 forward-looking sensor with that horizontal field of view would see them.
+--voxel M keeps the first point of each cube of M metres (before scaling), as a pipeline that
+thins its scans with a voxel filter hands them over: about as many points near the sensor as
+far from it.
 
 The list holds every pair i < j of the stored frames whose motion is within --distance and
 --max-yaw, with the reference source-to-target transform T_i_j = inv(Tv_i) * Tv_j,
@@ -54,6 +57,7 @@ def main():
     parser.add_argument("--poses", choices=["semantic", "gt"], default="semantic")
     parser.add_argument("--scale", type=float, default=1.0)
     parser.add_argument("--fov", type=float, default=360.0)
+    parser.add_argument("--voxel", type=float, default=0.0)
     args = parser.parse_args()
     if args.every < 1:
         sys.exit("kitti_ring_subset: K must be >= 1")
@@ -74,6 +78,10 @@ def main():
             if args.fov < 360:
                 azimuth = np.degrees(np.arctan2(subset[:, 1], subset[:, 0]))
                 subset = subset[np.abs(azimuth) <= args.fov / 2]
+            if args.voxel > 0:
+                cells = np.floor(subset[:, :3] / args.voxel).astype(np.int64)
+                _, first = np.unique(cells, axis=0, return_index=True)
+                subset = subset[np.sort(first)]
             if args.scale != 1.0:
                 subset[:, :3] *= np.float32(args.scale)
             subset.tofile(os.path.join(args.out, f"{seq}_{k:06d}.bin"))
