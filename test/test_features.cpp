@@ -156,6 +156,38 @@ TEST(TargetGrid, HandBuiltVoxels)
   EXPECT_EQ(grid.bins[grid.geometry.cellIndex(0, 0, 0)], 4);
   EXPECT_EQ(grid.bins[grid.geometry.cellIndex(2, 1, 0)], 2);
   EXPECT_EQ(grid.bins[grid.geometry.cellIndex(1, 0, 0)], 0);
+  // Rows (iz * dims.y + iy) 0 and 1 hold one occupied voxel each.
+  EXPECT_EQ(grid.row_starts, (std::vector<std::uint32_t>{0, 1, 2}));
+}
+
+// The row index finds exactly the occupied voxels of each row, empty rows included: a floor
+// and two walls, 20 x 10 x 3 m, at 0.5 m voxels.
+TEST(TargetGrid, RowStartsIndexTheOccupiedVoxelsRowByRow)
+{
+  PointList points;
+  for (float a = 0.0f; a < 20.0f; a += 0.1f) {
+    for (float b = 0.0f; b < 10.0f; b += 0.1f)
+      points.emplace_back(a, b, 0.0f);
+    for (float h = 0.0f; h < 3.0f; h += 0.1f) {
+      points.emplace_back(a, 0.0f, h);
+      points.emplace_back(a, 10.0f, h);
+    }
+  }
+  TargetGrid grid;
+  std::string error;
+  ASSERT_TRUE(buildTargetGrid(points, 0.5, Feature::VarianceZ, {16, 0.25}, grid, error))
+      << error;
+  const Eigen::Vector3i& dims = grid.geometry.dims;
+  const std::size_t rows = static_cast<std::size_t>(dims.y()) * dims.z();
+  ASSERT_EQ(grid.row_starts.size(), rows + 1);
+  EXPECT_EQ(grid.row_starts.front(), 0u);
+  EXPECT_EQ(grid.row_starts.back(), grid.occupied.size());
+  std::size_t seen = 0;
+  for (std::size_t row = 0; row < rows; ++row)
+    for (std::uint32_t k = grid.row_starts[row]; k < grid.row_starts[row + 1]; ++k, ++seen)
+      ASSERT_EQ(static_cast<std::size_t>(grid.occupied[k].iz) * dims.y() + grid.occupied[k].iy,
+                row);
+  EXPECT_EQ(seen, grid.occupied.size());
 }
 
 /** Voxels (v, 0, 0) for v = 0..7 holding (v + 1) * density points each. */

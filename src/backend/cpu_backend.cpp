@@ -17,8 +17,8 @@ namespace backend {
 namespace {
 
 /** Voxelises the transformed source straight into the target's grid, so the work per
- * evaluation is one pass over the points plus one over the occupied voxels; the voxels
- * empty in both clouds are counted, not visited. */
+ * evaluation is one pass over the points plus one over the occupied voxels in the overlap;
+ * the voxels empty in both clouds are counted, not visited. */
 class CpuBackend final : public ScoringBackend {
 public:
   const char*
@@ -169,13 +169,19 @@ private:
       if (cell != spare_cell)
         bump(target_->bins[cell],
              core::voxelBin(target_->feature, target_->binning, moments_[cell]));
-    for (const core::OccupiedVoxel& v : target_->occupied) {
-      if (v.ix < lo.x() || v.iy < lo.y() || v.iz < lo.z() || v.ix > hi.x() ||
-          v.iy > hi.y() || v.iz > hi.z())
-        continue;
-      if (moments_[v.cell].count == 0)
-        bump(v.bin, 0);
-    }
+    // Only the rows of cells that cross the overlap: a map much larger than the scan holds
+    // most of its voxels outside it.
+    const std::vector<core::OccupiedVoxel>& occupied = target_->occupied;
+    const std::vector<std::uint32_t>& row_starts = target_->row_starts;
+    for (int iz = lo.z(); iz <= hi.z(); ++iz)
+      for (int iy = lo.y(); iy <= hi.y(); ++iy) {
+        const std::size_t row = static_cast<std::size_t>(iz) * g.dims.y() + iy;
+        for (std::uint32_t k = row_starts[row]; k < row_starts[row + 1]; ++k) {
+          const core::OccupiedVoxel& v = occupied[k];
+          if (v.ix >= lo.x() && v.ix <= hi.x() && moments_[v.cell].count == 0)
+            bump(v.bin, 0);
+        }
+      }
     histogram.counts[0] += static_cast<std::uint32_t>(histogram.overlap_voxels - counted);
 
     clearTouched();

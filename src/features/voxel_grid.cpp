@@ -291,13 +291,18 @@ buildTargetGrid(const PointList& points,
   grid.occupied.reserve(occupied_cells.size());
   const std::size_t row = static_cast<std::size_t>(g.dims.x());
   const std::size_t slice = row * static_cast<std::size_t>(g.dims.y());
+  const std::size_t rows = g.cellCount() / row;
+  grid.row_starts.assign(rows + 1, 0);
   for (const std::uint32_t cell : occupied_cells) {
     const auto bin = static_cast<std::uint8_t>(voxelBin(feature, grid.binning, moments[cell]));
     grid.bins[cell] = bin;
     grid.occupied.push_back({cell, static_cast<std::int32_t>(cell % row),
                              static_cast<std::int32_t>(cell / row % g.dims.y()),
                              static_cast<std::int32_t>(cell / slice), bin});
+    ++grid.row_starts[cell / row + 1];
   }
+  for (std::size_t r = 0; r < rows; ++r)
+    grid.row_starts[r + 1] += grid.row_starts[r];
   // Cleared, the moments' memory can serve the next grid as it is.
   for (const std::uint32_t cell : occupied_cells)
     moments[cell] = VoxelMoments{};

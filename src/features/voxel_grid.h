@@ -121,7 +121,11 @@ struct TargetGrid {
   Feature feature = Feature::VarianceZ;
   FeatureBinning binning;
   std::vector<std::uint8_t> bins;
+  /** In the order of their cell index (z, then y, then x). */
   std::vector<OccupiedVoxel> occupied;
+  /** Where each row of cells (iz * dims.y + iy) starts in occupied, and one past the last:
+   * the occupied voxels of a box are found row by row without a look at the others. */
+  std::vector<std::uint32_t> row_starts;
 };
 
 /** \brief The grid covering \a points at \a resolution. False (with \a error) when the
