@@ -19,7 +19,8 @@ namespace pcl_mi {
 namespace core {
 
 /** Largest dense grid accepted (cells). Bounds memory to 16 bytes per cell for a backend's
- * source accumulators plus 1 byte per cell for the target bins (~285 MB at the cap). */
+ * source accumulators plus 1 byte per cell for the target bins (~285 MB at the cap), and
+ * 4 bytes per row of cells for the target's row index. */
 constexpr std::size_t kMaxGridCells = std::size_t{1} << 24;
 
 /** Gap, in voxels, that separates far outliers from the bulk of a cloud. */
