@@ -881,6 +881,42 @@ TEST(Registration, OtherSensorsAlignWithTheDefaults)
   }
 }
 
+namespace {
+
+/** The turn R = Rz(yaw) Ry(pitch) Rx(roll), angles in degrees, as a 4x4 transform. */
+Eigen::Matrix4d
+turnDegrees(double roll, double pitch, double yaw)
+{
+  Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
+  turn.topLeftCorner<3, 3>() = (Eigen::AngleAxisd(yaw * M_PI / 180.0, Eigen::Vector3d::UnitZ()) *
+                                Eigen::AngleAxisd(pitch * M_PI / 180.0, Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(roll * M_PI / 180.0, Eigen::Vector3d::UnitX()))
+                                   .toRotationMatrix();
+  return turn;
+}
+
+/** Aligns \a source onto \a target (\a forward) or \a target onto \a source with the
+ * defaults, and expects a leveled search, a converged result and \a reference (source to
+ * target) or its inverse. */
+void
+expectLeveledAlignment(const Cloud::Ptr& source,
+                       const Cloud::Ptr& target,
+                       const Eigen::Matrix4d& reference,
+                       bool forward)
+{
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setInputSource(forward ? source : target);
+  reg.setInputTarget(forward ? target : source);
+  Cloud aligned;
+  reg.align(aligned);
+  EXPECT_TRUE(reg.getLastResult().leveled);
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
+                   forward ? reference : Eigen::Matrix4d(reference.inverse()));
+}
+
+} // namespace
+
 // A sensor carried tilted: the bundled Ouster pair with its source turned about the sensor
 // by tens of degrees of roll and pitch (and some yaw), in both directions. The clouds' up
 // directions disagree, the search starts leveled and finds the pose; the same pair taken
@@ -892,28 +928,13 @@ TEST(Registration, ATiltedSensorIsSearchedFromTheLeveledGuess)
   ASSERT_NO_FATAL_FAILURE(loadBundledPair("seosan01_ouster128", source, target, reference));
   for (const auto& [roll, pitch, yaw] :
        {std::make_tuple(25.0, -20.0, 30.0), std::make_tuple(-15.0, 35.0, -60.0)}) {
-    const Eigen::Matrix3d turn =
-        (Eigen::AngleAxisd(yaw * M_PI / 180.0, Eigen::Vector3d::UnitZ()) *
-         Eigen::AngleAxisd(pitch * M_PI / 180.0, Eigen::Vector3d::UnitY()) *
-         Eigen::AngleAxisd(roll * M_PI / 180.0, Eigen::Vector3d::UnitX()))
-            .toRotationMatrix();
-    Eigen::Matrix4d turned = Eigen::Matrix4d::Identity();
-    turned.topLeftCorner<3, 3>() = turn;
+    const Eigen::Matrix4d turned = turnDegrees(roll, pitch, yaw);
     auto tilted = pcl::make_shared<Cloud>();
     pcl::transformPointCloud(*source, *tilted, turned.cast<float>());
-    const Eigen::Matrix4d tilted_reference = reference * turned.inverse();
     for (const bool forward : {true, false}) {
       SCOPED_TRACE(testing::Message() << "roll " << roll << ", pitch " << pitch << ", yaw "
                                       << yaw << (forward ? ", forward" : ", backward"));
-      pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-      reg.setInputSource(forward ? tilted : target);
-      reg.setInputTarget(forward ? target : tilted);
-      Cloud aligned;
-      reg.align(aligned);
-      EXPECT_TRUE(reg.getLastResult().leveled);
-      EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
-      EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
-                       forward ? tilted_reference : Eigen::Matrix4d(tilted_reference.inverse()));
+      expectLeveledAlignment(tilted, target, reference * turned.inverse(), forward);
     }
   }
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
@@ -938,28 +959,16 @@ TEST(Registration, ASensorMountedTiltedIsSearchedAlongTheGround)
   const auto target = test_data::loadScan("02", 0);
   const Eigen::Matrix4d reference = test_data::referenceTransform("02", 0, 6);
   for (const auto& [roll, pitch] : {std::make_pair(0.0, 30.0), std::make_pair(-15.0, -40.0)}) {
-    Eigen::Matrix4d mount = Eigen::Matrix4d::Identity();
-    mount.topLeftCorner<3, 3>() =
-        (Eigen::AngleAxisd(pitch * M_PI / 180.0, Eigen::Vector3d::UnitY()) *
-         Eigen::AngleAxisd(roll * M_PI / 180.0, Eigen::Vector3d::UnitX()))
-            .toRotationMatrix();
+    const Eigen::Matrix4d mount = turnDegrees(roll, pitch, 0.0);
     auto tilted_source = pcl::make_shared<Cloud>();
     auto tilted_target = pcl::make_shared<Cloud>();
     pcl::transformPointCloud(*source, *tilted_source, mount.cast<float>());
     pcl::transformPointCloud(*target, *tilted_target, mount.cast<float>());
-    const Eigen::Matrix4d tilted_reference = mount * reference * mount.inverse();
     for (const bool forward : {true, false}) {
       SCOPED_TRACE(testing::Message() << "roll " << roll << ", pitch " << pitch
                                       << (forward ? ", forward" : ", backward"));
-      pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-      reg.setInputSource(forward ? tilted_source : tilted_target);
-      reg.setInputTarget(forward ? tilted_target : tilted_source);
-      Cloud aligned;
-      reg.align(aligned);
-      EXPECT_TRUE(reg.getLastResult().leveled);
-      EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
-      EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
-                       forward ? tilted_reference : Eigen::Matrix4d(tilted_reference.inverse()));
+      expectLeveledAlignment(tilted_source, tilted_target, mount * reference * mount.inverse(),
+                             forward);
     }
   }
 }
