@@ -3,8 +3,13 @@
 set; the set is named by the file name): per set the share of converged results that miss
 the success bound and the share of right results that said converged, then the reliability
 diagram of the confidence over all rows (deciles; bins with fewer than 20 rows are marked).
+With -thresholds, the pooled verdict each other confidence threshold would give: converged
+where the search converged, at least 30 inliers, no free direction (contrast >= 0.05) and the
+confidence at least the threshold (src/verify/verification.cpp). The CSVs do not record the
+second-optimum check, so those figures count a few results as converged that the library
+refuses: their wrong shares are upper bounds.
 
-Usage: verdict_report.py [-success T,R] [-plot OUT.png] A.csv B.csv ...
+Usage: verdict_report.py [-success T,R] [-plot OUT.png] [-thresholds 0.95,0.9,...] A.csv B.csv ...
 """
 import csv
 import os
@@ -14,17 +19,19 @@ import numpy as np
 
 
 def main(argv):
-    args, files, bound, plot = argv[1:], [], (0.5, 2.0), None
+    args, files, bound, plot, thresholds = argv[1:], [], (0.5, 2.0), None, []
     i = 0
     while i < len(args):
-        if args[i] == "-success":
+        if args[i] == "-thresholds":
+            thresholds, i = [float(x) for x in args[i + 1].split(",")], i + 2
+        elif args[i] == "-success":
             bound, i = tuple(float(x) for x in args[i + 1].split(",")), i + 2
         elif args[i] == "-plot":
             plot, i = args[i + 1], i + 2
         else:
             files.append(args[i])
             i += 1
-    confidence, success = [], []
+    confidence, success, passes = [], [], []
     print("| set | results | right | converged | wrong among converged | right that said converged |")
     print("|---|---|---|---|---|---|")
     totals = np.zeros(4)
@@ -35,6 +42,8 @@ def main(argv):
                        float(r["rotation_error_deg"]) < bound[1] for r in rows])
         said = np.array([r["converged"] == "1" for r in rows])
         confidence += [float(r["confidence"]) for r in rows]
+        passes += [r["search_converged"] == "1" and int(r["inliers"]) >= 30 and
+                   float(r["free_direction_contrast"]) >= 0.05 for r in rows]
         success += list(ok)
         wrong, found = (said & ~ok).sum(), (said & ok).sum()
         totals += [len(rows), ok.sum(), said.sum(), wrong]
@@ -57,6 +66,17 @@ def main(argv):
         centres.append(c), observed.append(s), counts.append(m.sum())
         print("| %.1f-%.1f | %d%s | %.3f | %.3f | %+.1f points |" % (
             lo, hi, m.sum(), "" if m.sum() >= 20 else " (< 20)", c, s, 100.0 * (s - c)))
+    if thresholds:
+        passes = np.array(passes)
+        print("\nOther thresholds (all rows; wrong shares are upper bounds, see the usage)")
+        print("| confidence at least | converged | wrong among converged | right that said converged |")
+        print("|---|---|---|---|")
+        for t in thresholds:
+            said = passes & (confidence >= t)
+            wrong = (said & ~success).sum()
+            print("| %.2f | %d | %d (%.2f %%) | %.1f %% |" % (
+                t, said.sum(), wrong, 100.0 * wrong / max(said.sum(), 1),
+                100.0 * (said & success).sum() / max(success.sum(), 1)))
     if plot:
         import matplotlib
         matplotlib.use("Agg")
