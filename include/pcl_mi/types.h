@@ -166,7 +166,8 @@ struct AlignmentResult {
    * did not trust the best one. */
   int runners_up_checked = 0;
   /** The result is one of those runners-up: it agreed better with the target on the finest
-   * grid (normalised MI) than the search's best. */
+   * grid (normalised MI) than the search's best, or it lies on surfaces the clouds share
+   * where the best does not (fewer than 30 inliers). */
   bool runner_up_kept = false;
   /** The wider second search ran (SearchParameters::second_search_headings); where it found
    * the result, runner_up_kept is true too. */

@@ -197,11 +197,20 @@ widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions
   }
 }
 
+/** True where the clouds share enough surface at \a verification's pose to hold a pose. */
+bool
+sharesSurface(const Verification& verification)
+{
+  return verification.inliers >= core::kMinimumInliers;
+}
+
 /** Refines and verifies each of \a optima (search vectors with their searches' convergence)
  * and puts the one with the highest normalised MI on the finest grid into \a result where
  * that is higher than the result's own, \a finest_normalized_mi (updated); counts them in
  * result.runners_up_checked. Normalised MI, as on the coarsest level, because the
- * candidates' overlaps differ. */
+ * candidates' overlaps differ. A candidate where the clouds share surface beats one where
+ * they share too little whatever their MI: the MI of a few voxels at the edge of the
+ * overlap can be high by chance, and such a pose aligns nothing. */
 void
 keepTheFinestGridsChoice(core::PreparedProblem& problem,
                          const core::SearchSpace& space,
@@ -215,7 +224,9 @@ keepTheFinestGridsChoice(core::PreparedProblem& problem,
     other.search_converged = optimum.converged;
     const double other_normalized_mi = finishCandidate(problem, space, optimum.x, scratch, other);
     ++result.runners_up_checked;
-    if (other_normalized_mi > finest_normalized_mi) {
+    const bool supported = sharesSurface(other.verification);
+    if (supported != sharesSurface(result.verification) ? supported
+                                                         : other_normalized_mi > finest_normalized_mi) {
       finest_normalized_mi = other_normalized_mi;
       result.transformation = other.transformation;
       result.converged = other.converged;

@@ -42,8 +42,6 @@ constexpr double kWeightPeakContrast = 1.42;
 /** Inlier fractions are clamped to [kFractionClamp, 1 - kFractionClamp] for the logit. */
 constexpr double kFractionClamp = 1e-3;
 
-/** Fewest inliers that can hold six degrees of freedom with room to spare. */
-constexpr std::size_t kMinimumInliers = 30;
 /** Share of the inliers that a move of one voxel along one of the two least observable
  * directions must lose at least: a floor or a corridor loses only its edges along its free
  * directions, whereas their noisy normals leave those directions some small information. */

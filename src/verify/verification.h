@@ -20,6 +20,10 @@ namespace core {
  * when it is right with a probability of at least 95 %. */
 constexpr double kReliableConfidence = 0.95;
 
+/** Fewest inliers (source samples on a target surface) that can hold six degrees of
+ * freedom with room to spare; a result with fewer does not pass. */
+constexpr std::size_t kMinimumInliers = 30;
+
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
