@@ -167,8 +167,9 @@ struct SearchParameters {
    * alignment used. */
   int narrow_view_scanned_starts = 2;
   /** For clouds without a narrow field of view, when the verification does not trust the
-   * result: a second, wider search from this many headings spread over 360 degrees, with
-   * roll and pitch steps of at least 0.35 rad (0 = none). Of its optima and the first
+   * result: a second, wider search from this many headings spread over 360 degrees and from
+   * two positions half the x step either way along x from the guess, with roll and pitch
+   * steps of at least 0.35 rad (0 = none). Of its optima and the first
    * search's, the one that agrees best with the target on the finest grid is kept
    * (AlignmentResult::second_search). A guess off by more than about 60 degrees of heading,
    * or a handheld sensor tilted by tens of degrees, is where the first search fails; a

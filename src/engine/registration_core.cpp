@@ -41,6 +41,11 @@ constexpr double kSensorOriginRadii = 4.0;
  * has the same default for the same reason). */
 constexpr double kSecondSearchTiltStep = 0.35;
 
+/** Position starts of the wider second search, at least (SearchParameters::position_starts):
+ * two lie half the x step either way along x. A fast car on a featureless road can leave
+ * the first search at the guess, a whole motion short of the true pose. */
+constexpr int kSecondSearchPositionStarts = 2;
+
 /** The search's cost: minus the MI of the pose a search vector stands for, or minus its
  * normalised MI on \a normalized_level (-1: none). */
 class MutualInformationCosts final : public core::LevelCosts {
@@ -374,8 +379,9 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     clock.end(result.stages, "runners-up", result.runners_up_checked);
   }
 
-  // Still not trusted, a 360-degree pair gets a wider second search: more headings and
-  // tilt steps of a handheld sensor. A narrow view's first search is that wide already.
+  // Still not trusted, a 360-degree pair gets a wider second search: more headings, tilt
+  // steps of a handheld sensor, and starts along x. A narrow view's first search is that
+  // wide already.
   const int left = max_iterations - result.iterations;
   if (!result.verification.reason.empty() && !narrow_view &&
       p.search.second_search_headings > 0 && left > 0) {
@@ -385,6 +391,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     if (wide.yaw_index >= 0)
       wide.heading_starts = std::max(wide.heading_starts, p.search.second_search_headings);
     widenTilt(space, kSecondSearchTiltStep, wide);
+    if (wide.x_index >= 0 || wide.y_index >= 0)
+      wide.position_starts = std::max(wide.position_starts, kSecondSearchPositionStarts);
     const core::CoarseToFineResult again = core::searchCoarseToFine(costs, wide);
     result.second_search = true;
     result.iterations += again.iterations;
