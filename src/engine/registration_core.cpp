@@ -230,8 +230,10 @@ keepTheFinestGridsChoice(core::PreparedProblem& problem,
     const double other_normalized_mi = finishCandidate(problem, space, optimum.x, scratch, other);
     ++result.runners_up_checked;
     const bool supported = sharesSurface(other.verification);
-    if (supported != sharesSurface(result.verification) ? supported
-                                                         : other_normalized_mi > finest_normalized_mi) {
+    const bool better = supported != sharesSurface(result.verification)
+                            ? supported
+                            : other_normalized_mi > finest_normalized_mi;
+    if (better) {
       finest_normalized_mi = other_normalized_mi;
       result.transformation = other.transformation;
       result.converged = other.converged;
