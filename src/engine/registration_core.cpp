@@ -202,13 +202,6 @@ widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions
   }
 }
 
-/** True where the clouds share enough surface at \a verification's pose to hold a pose. */
-bool
-sharesSurface(const Verification& verification)
-{
-  return verification.inliers >= core::kMinimumInliers;
-}
-
 /** Refines and verifies each of \a optima (search vectors with their searches' convergence)
  * and puts the one with the highest normalised MI on the finest grid into \a result where
  * that is higher than the result's own, \a finest_normalized_mi (updated); counts them in
@@ -229,8 +222,8 @@ keepTheFinestGridsChoice(core::PreparedProblem& problem,
     other.search_converged = optimum.converged;
     const double other_normalized_mi = finishCandidate(problem, space, optimum.x, scratch, other);
     ++result.runners_up_checked;
-    const bool supported = sharesSurface(other.verification);
-    const bool better = supported != sharesSurface(result.verification)
+    const bool supported = core::sharesSurface(other.verification);
+    const bool better = supported != core::sharesSurface(result.verification)
                             ? supported
                             : other_normalized_mi > finest_normalized_mi;
     if (better) {

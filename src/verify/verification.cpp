@@ -271,11 +271,11 @@ verifyPose(const TargetDistributions& target,
   v.observability_directions.topRows<3>() = target_axes * v.observability_directions.topRows<3>();
   v.observability_directions.bottomRows<3>() =
       target_axes * v.observability_directions.bottomRows<3>();
-  if (free[0] || free[1] || at.inliers < kMinimumInliers)
+  if (free[0] || free[1] || !sharesSurface(v))
     v.covariance.setZero();
 
   std::ostringstream reason;
-  if (at.inliers < kMinimumInliers)
+  if (!sharesSurface(v))
     reason << "the clouds share too little surface at this resolution (" << at.inliers
            << " source samples on a target surface)";
   else if (free[0] || free[1])

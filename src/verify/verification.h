@@ -24,6 +24,14 @@ constexpr double kReliableConfidence = 0.95;
  * freedom with room to spare; a result with fewer does not pass. */
 constexpr std::size_t kMinimumInliers = 30;
 
+/** \brief True where the clouds share enough surface at the verified pose to hold a pose
+ * (at least kMinimumInliers inliers). */
+inline bool
+sharesSurface(const Verification& verification)
+{
+  return verification.inliers >= kMinimumInliers;
+}
+
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
