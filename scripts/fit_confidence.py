@@ -27,6 +27,13 @@ RIDGE = 0.1
 THRESHOLD = 0.95
 
 
+def passes_gate(row):
+    """The verdict's tests other than the confidence, from one CSV row: search converged,
+    at least 30 inliers, free-direction contrast at least 0.05."""
+    return (row["search_converged"] == "1" and int(row["inliers"]) >= 30 and
+            float(row["free_direction_contrast"]) >= 0.05)
+
+
 def load(path, bound):
     with open(path) as f:
         rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
@@ -35,7 +42,7 @@ def load(path, bound):
     x = np.column_stack([g("normalized_mi"), g("weakest_contrast"), np.log(f / (1 - f)),
                          np.log1p(g("inliers")), g("peak_contrast")])
     y = (g("translation_error_m") < bound[0]) & (g("rotation_error_deg") < bound[1])
-    gate = (g("search_converged") > 0.5) & (g("inliers") >= 30) & (g("free_direction_contrast") >= 0.05)
+    gate = np.array([passes_gate(r) for r in rows], dtype=bool)
     return x, y, gate
 
 

@@ -17,6 +17,8 @@ import sys
 
 import numpy as np
 
+from fit_confidence import passes_gate
+
 
 def main(argv):
     args, files, bound, plot, thresholds = argv[1:], [], (0.5, 2.0), None, []
@@ -42,8 +44,7 @@ def main(argv):
                        float(r["rotation_error_deg"]) < bound[1] for r in rows])
         said = np.array([r["converged"] == "1" for r in rows])
         confidence += [float(r["confidence"]) for r in rows]
-        passes += [r["search_converged"] == "1" and int(r["inliers"]) >= 30 and
-                   float(r["free_direction_contrast"]) >= 0.05 for r in rows]
+        passes += [passes_gate(r) for r in rows]
         success += list(ok)
         wrong, found = (said & ~ok).sum(), (said & ok).sum()
         totals += [len(rows), ok.sum(), said.sum(), wrong]
