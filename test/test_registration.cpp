@@ -764,9 +764,7 @@ TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
   for (const auto& stage : r.stages)
     timed = timed || (stage.name == "runners-up" && stage.calls == r.runners_up_checked);
   EXPECT_TRUE(timed);
-  const auto error = pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), reference);
-  EXPECT_LT(error.translation, 0.1);
-  EXPECT_LT(error.rotation_deg, 0.5);
+  EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
 
   // A result the verification trusts is final: no runner-up is looked at.
   reg.setInputSource(test_data::loadScan("00", 9));
@@ -799,9 +797,7 @@ TEST(Registration, ALivoxPairIsFoundOnTheCoarsestLevelsNormalisedMI)
     Cloud aligned;
     reg.align(aligned);
     EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
-    const auto error = pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), truth);
-    EXPECT_LT(error.translation, 0.1);
-    EXPECT_LT(error.rotation_deg, 0.5);
+    EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), truth);
 
     reg.setCoarseNormalizedMI(false);
     reg.align(aligned);
@@ -828,9 +824,7 @@ TEST(Registration, TheSecondSearchAlsoStartsAlongTheRoad)
   reg.align(aligned);
   EXPECT_TRUE(reg.getLastResult().second_search);
   EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
-  const auto error = pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), reference);
-  EXPECT_LT(error.translation, 0.1);
-  EXPECT_LT(error.rotation_deg, 0.5);
+  EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
 }
 
 // A Livox turned on the spot in a small room, 33 deg between the scans: the search's best
@@ -851,9 +845,7 @@ TEST(Registration, ARunnerUpOnSharedSurfacesBeatsAPoseThatSharesNone)
   EXPECT_TRUE(r.runner_up_kept);
   EXPECT_GE(r.verification.inliers, 30u);
   EXPECT_GT(reg.getConfidence(), 0.95);
-  const auto error = pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), reference);
-  EXPECT_LT(error.translation, 0.1);
-  EXPECT_LT(error.rotation_deg, 0.5);
+  EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
 }
 
 // The first bundled Livox pair (3.4 m, 38 deg), source the later scan. The resolution is
@@ -878,8 +870,8 @@ TEST(Registration, ANarrowViewsRefinementReachesFurtherInCoarserStages)
         pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), reference);
     if (stages > 0) {
       EXPECT_EQ(reg.getLastResult().refinement_stages, 3);
-      EXPECT_LT(error.translation, 0.1);
-      EXPECT_LT(error.rotation_deg, 0.5);
+      EXPECT_LT(error.translation, test_data::kSampleTranslationError);
+      EXPECT_LT(error.rotation_deg, test_data::kSampleRotationErrorDeg);
     }
     else {
       EXPECT_LE(reg.getLastResult().refinement_stages, 1);
@@ -917,10 +909,7 @@ TEST(Registration, OtherSensorsAlignWithTheDefaults)
       reg.align(aligned);
       EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
       const Eigen::Matrix4d expected = forward ? reference : Eigen::Matrix4d(reference.inverse());
-      const auto error =
-          pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), expected);
-      EXPECT_LT(error.translation, 0.1);
-      EXPECT_LT(error.rotation_deg, 0.5);
+      EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), expected);
     }
   }
 }
