@@ -3,6 +3,8 @@
  */
 #include "backend/scoring_backend.h"
 
+#include "backend/moved_samples.h"
+
 #include "features/feature_binning.h"
 #include "util/zeroed_array.h"
 
@@ -10,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 namespace pcl_mi {
 namespace backend {
@@ -17,8 +20,9 @@ namespace backend {
 namespace {
 
 /** Voxelises the transformed source straight into the target's grid, so the work per
- * evaluation is one pass over the points plus one over the occupied voxels in the overlap;
- * the voxels empty in both clouds are counted, not visited. */
+ * evaluation is one pass over the samples (per block of them, the arithmetic four at a time,
+ * then the moments) plus one over the occupied voxels in the overlap; the voxels empty in
+ * both clouds are counted, not visited. */
 class CpuBackend final : public ScoringBackend {
 public:
   const char*
@@ -41,6 +45,7 @@ public:
   setSource(std::shared_ptr<const core::SourceSamples> source) override
   {
     source_ = std::move(source);
+    columns_ = std::make_unique<SampleColumns>(*source_);
   }
 
   void
@@ -90,16 +95,8 @@ private:
     // (box intersection) computed below. The test runs on floats so far samples are never
     // cast to int.
     const core::GridPose pose = core::gridPose(g, rotation, translation);
-    const Eigen::Matrix3f& r = pose.rotation;
-    const Eigen::Vector3f& t = pose.translation;
     const Eigen::Vector3f grid_end = g.dims.cast<float>();
-    // The largest floats below the grid's end: inside samples clamp to themselves.
-    const Eigen::Vector3f grid_last(std::nextafter(grid_end.x(), 0.0f),
-                                    std::nextafter(grid_end.y(), 0.0f),
-                                    std::nextafter(grid_end.z(), 0.0f));
     const std::size_t spare_cell = g.cellCount();
-    const Eigen::Vector3f& rz = pose.rotation_z;
-    const float variance_scale = pose.variance_scale;
     const bool has_covariance = source_->has_covariance;
     const std::vector<core::SourceSample>& samples = source_->samples;
     Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
@@ -107,34 +104,26 @@ private:
     // Room for every sample to open a new cell, so the append below needs no branch.
     touched_.resize(samples.size());
     std::size_t touched = 0;
-    for (const auto& s : samples) {
-      // The OpenCL kernels' arithmetic (kernels/voxel_math.h).
-      const Eigen::Vector3f& p = s.position;
-      const Eigen::Vector3f f(
-          voxel::pcl_mi_moved(r(0, 0), r(0, 1), r(0, 2), t.x(), p.x(), p.y(), p.z()),
-          voxel::pcl_mi_moved(r(1, 0), r(1, 1), r(1, 2), t.y(), p.x(), p.y(), p.z()),
-          voxel::pcl_mi_moved(r(2, 0), r(2, 1), r(2, 2), t.z(), p.x(), p.y(), p.z()));
-      min = min.cwiseMin(f);
-      max = max.cwiseMax(f);
-      // Samples outside the grid go to a spare cell past its end instead of branching
-      // away: whether a sample is inside is as good as random, and mispredicted branches
-      // cost more than the arithmetic. Coordinates are clamped before the integer cast.
-      const bool inside = (f.array() >= 0.0f).all() && (f.array() < grid_end.array()).all();
-      const Eigen::Vector3f clamped = f.cwiseMax(0.0f).cwiseMin(grid_last);
-      const int ix = static_cast<int>(clamped.x());
-      const int iy = static_cast<int>(clamped.y());
-      const int iz = static_cast<int>(clamped.z());
-      const std::size_t cell = inside ? g.cellIndex(ix, iy, iz) : spare_cell;
-      core::VoxelMoments& m = moments_[cell];
-      touched_[touched] = static_cast<std::uint32_t>(cell);
-      touched += m.count == 0;
-      const int q = core::quantiseHeight(clamped.z(), iz);
-      if (!has_covariance) {
-        m.add(q);
-        continue;
+    // Per block, the arithmetic first (vectorised), then the moments, which each depend on
+    // the voxel the last sample touched.
+    for (std::size_t begin = 0; begin < samples.size(); begin += kMovedBlock) {
+      const std::size_t end = std::min(samples.size(), begin + kMovedBlock);
+      moveSamples(pose, g.dims, *columns_, begin, end, block_, min, max);
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::size_t k = i - begin;
+        // Samples outside the grid go to a spare cell past its end instead of branching
+        // away: whether a sample is inside is as good as random, and mispredicted branches
+        // cost more than the arithmetic.
+        const std::size_t cell =
+            block_.inside[k] ? g.cellIndex(block_.ix[k], block_.iy[k], block_.iz[k]) : spare_cell;
+        core::VoxelMoments& m = moments_[cell];
+        touched_[touched] = static_cast<std::uint32_t>(cell);
+        touched += m.count == 0;
+        if (!has_covariance)
+          m.add(block_.height[k]);
+        else
+          m.add(block_.height[k], samples[i].count, block_.variance[k]);
       }
-      m.add(q, s.count,
-            voxel::pcl_mi_variance_levels(rz.x(), rz.y(), rz.z(), s.covariance, variance_scale));
     }
 
     touched_.resize(touched);
@@ -197,6 +186,8 @@ private:
 
   std::shared_ptr<const core::TargetGrid> target_;
   std::shared_ptr<const core::SourceSamples> source_;
+  std::unique_ptr<SampleColumns> columns_;  // source_ in columns
+  MovedBlock block_;                        // where the current block's samples land
   core::ZeroedArray<core::VoxelMoments> moments_; // per target cell, zero between calls
   std::vector<std::uint32_t> touched_;      // cells with source points this call
   int calls_ = 0;
