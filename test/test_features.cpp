@@ -8,6 +8,7 @@
 #include "features/source_samples.h"
 #include "features/up_direction.h"
 #include "features/voxel_grid.h"
+#include "util/bounding_box.h"
 
 #include <gtest/gtest.h>
 
@@ -15,6 +16,7 @@
 
 #include <cmath>
 #include <optional>
+#include <random>
 
 using namespace pcl_mi;
 using namespace pcl_mi::core;
@@ -429,4 +431,28 @@ TEST(UpDirection, FindsTheFloorOfATiltedRoomAndNotItsWalls)
   EXPECT_FALSE(estimateUpDirection(makeSourceSamples(turnedRoom(Eigen::Matrix3f::Identity(), true),
                                                      0.0))
                    .has_value());
+}
+
+TEST(BoundingBox, PackedPointsGiveTheScalarLoopsBox)
+{
+  // Every count up to a few vectors (each tail of the vector loop), with the extremes at
+  // the first point, the last point and in between.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> value(-50.0f, 50.0f);
+  for (std::size_t count = 1; count <= 19; ++count)
+    for (std::size_t extreme = 0; extreme < count; ++extreme) {
+      PointList points(count);
+      for (auto& p : points)
+        p = Eigen::Vector3f(value(rng), value(rng), value(rng));
+      points[extreme] = Eigen::Vector3f(-100.0f, 100.0f, -100.0f - extreme);
+      Eigen::Vector3f min, max, expected_min, expected_max;
+      boundingBox(points, min, max);
+      boundingBox(
+          count, [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; },
+          expected_min, expected_max);
+      EXPECT_EQ(min, expected_min) << count << " points, extreme at " << extreme;
+      EXPECT_EQ(max, expected_max) << count << " points, extreme at " << extreme;
+      EXPECT_EQ(min.x(), -100.0f);
+      EXPECT_EQ(max.y(), 100.0f);
+    }
 }

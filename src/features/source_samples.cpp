@@ -203,7 +203,7 @@ makeSourceSamples(const PointList& points, double cell_size)
   // Sort points by their cell (z slowest), then summarise runs of equal cells.
   auto point = [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; };
   Eigen::Vector3f min, max;
-  boundingBox(points.size(), point, min, max);
+  boundingBox(points, min, max);
   out.grid_origin = min;
   const SortedCells keyed = sortedCellKeys(points.size(), point, min, max, cell_size);
   for (std::size_t begin = 0; begin < keyed.size();) {
@@ -231,8 +231,7 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
   if (points.empty() || !(cell_size > 0.0))
     return pyramid;
   Eigen::Vector3f min, max;
-  boundingBox(points.size(), [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; },
-              min, max);
+  boundingBox(points, min, max);
   for (int k = 1; k <= coarser; ++k) {
     const SourceSamples& fine = pyramid.back();
     SourceSamples out;

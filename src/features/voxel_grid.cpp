@@ -221,8 +221,7 @@ makeGridGeometry(const PointList& points,
     return false;
   }
   Eigen::Vector3f min, max;
-  boundingBox(points.size(), [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; },
-              min, max);
+  boundingBox(points, min, max);
   g.resolution = static_cast<float>(resolution);
   const Eigen::Vector3d first = (min.cast<double>() / resolution).array().floor();
   const Eigen::Vector3d last = (max.cast<double>() / resolution).array().floor();
