@@ -445,11 +445,13 @@ TEST(BoundingBox, PackedPointsGiveTheScalarLoopsBox)
       for (auto& p : points)
         p = Eigen::Vector3f(value(rng), value(rng), value(rng));
       points[extreme] = Eigen::Vector3f(-100.0f, 100.0f, -100.0f - extreme);
-      Eigen::Vector3f min, max, expected_min, expected_max;
+      Eigen::Vector3f min, max;
       boundingBox(points, min, max);
-      boundingBox(
-          count, [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; },
-          expected_min, expected_max);
+      Eigen::Vector3f expected_min = points[0], expected_max = points[0];
+      for (const Eigen::Vector3f& p : points) {
+        expected_min = expected_min.cwiseMin(p);
+        expected_max = expected_max.cwiseMax(p);
+      }
       EXPECT_EQ(min, expected_min) << count << " points, extreme at " << extreme;
       EXPECT_EQ(max, expected_max) << count << " points, extreme at " << extreme;
       EXPECT_EQ(min.x(), -100.0f);

@@ -183,29 +183,21 @@ appendSummary(SourceSamples& out, const Eigen::Vector3d& anchor, const OffsetSum
   out.samples.push_back(s);
 }
 
-} // namespace
-
+/** makeSourceSamples() for \a points (non-empty) whose bounding box is [\a min, \a max]. */
 SourceSamples
-makeSourceSamples(const PointList& points, double cell_size)
+summariseCells(const PointList& points,
+               double cell_size,
+               const Eigen::Vector3f& min,
+               const Eigen::Vector3f& max)
 {
   SourceSamples out;
   out.cell_size = cell_size;
   out.point_count = points.size();
-  if (points.empty())
-    return out;
-  if (!(cell_size > 0.0)) {
-    out.samples.resize(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i)
-      out.samples[i].position = points[i];
-    return out;
-  }
-
-  // Sort points by their cell (z slowest), then summarise runs of equal cells.
-  auto point = [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; };
-  Eigen::Vector3f min, max;
-  boundingBox(points, min, max);
   out.grid_origin = min;
-  const SortedCells keyed = sortedCellKeys(points.size(), point, min, max, cell_size);
+  // Sort points by their cell (z slowest), then summarise runs of equal cells.
+  const SortedCells keyed = sortedCellKeys(
+      points.size(), [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; }, min,
+      max, cell_size);
   for (std::size_t begin = 0; begin < keyed.size();) {
     std::size_t end = begin + 1;
     while (end < keyed.size() && keyed.key(end) == keyed.key(begin))
@@ -223,15 +215,39 @@ makeSourceSamples(const PointList& points, double cell_size)
   return out;
 }
 
+} // namespace
+
+SourceSamples
+makeSourceSamples(const PointList& points, double cell_size)
+{
+  SourceSamples out;
+  out.cell_size = cell_size;
+  out.point_count = points.size();
+  if (points.empty())
+    return out;
+  if (!(cell_size > 0.0)) {
+    out.samples.resize(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i)
+      out.samples[i].position = points[i];
+    return out;
+  }
+  Eigen::Vector3f min, max;
+  boundingBox(points, min, max);
+  return summariseCells(points, cell_size, min, max);
+}
+
 std::vector<SourceSamples>
 makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
 {
   std::vector<SourceSamples> pyramid;
-  pyramid.push_back(makeSourceSamples(points, cell_size));
-  if (points.empty() || !(cell_size > 0.0))
+  if (points.empty() || !(cell_size > 0.0)) {
+    pyramid.push_back(makeSourceSamples(points, cell_size));
     return pyramid;
+  }
+  // One bounding box for every level: coarse cells nest fine ones from the same corner.
   Eigen::Vector3f min, max;
   boundingBox(points, min, max);
+  pyramid.push_back(summariseCells(points, cell_size, min, max));
   for (int k = 1; k <= coarser; ++k) {
     const SourceSamples& fine = pyramid.back();
     SourceSamples out;

@@ -1,5 +1,5 @@
 /*
- * pcl_mi: the axis-aligned bounding box of a set of positions.
+ * pcl_mi: the axis-aligned bounding box of a list of points.
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #pragma once
@@ -17,36 +17,17 @@
 namespace pcl_mi {
 namespace core {
 
-/** \brief Bounding box of the \a count > 0 positions position_of(0 .. count - 1). Kept in
- * six scalars: with Eigen vectors the compiler spilled one bound to the stack and every
- * point waited on the store. */
-template <typename PositionOf>
-void
-boundingBox(std::size_t count, const PositionOf& position_of, Eigen::Vector3f& min, Eigen::Vector3f& max)
-{
-  const Eigen::Vector3f& first = position_of(0);
-  float x0 = first.x(), y0 = first.y(), z0 = first.z();
-  float x1 = x0, y1 = y0, z1 = z0;
-  for (std::size_t i = 1; i < count; ++i) {
-    const Eigen::Vector3f& p = position_of(i);
-    x0 = std::min(x0, p.x());
-    y0 = std::min(y0, p.y());
-    z0 = std::min(z0, p.z());
-    x1 = std::max(x1, p.x());
-    y1 = std::max(y1, p.y());
-    z1 = std::max(z1, p.z());
-  }
-  min = Eigen::Vector3f(x0, y0, z0);
-  max = Eigen::Vector3f(x1, y1, z1);
-}
-
-/** \brief Bounding box of \a count > 0 points stored as consecutive x, y, z floats from
- * \a xyz: four lanes at a time where SSE2 is there, with two running bounds so that no
- * point waits on the one before. Minima and maxima are exact, so the box is the one the
- * scalar loop gives (up to the sign of a zero bound, which no cell index sees). */
+/** \brief Bounding box of the non-empty \a points: four lanes a point where SSE2 is there,
+ * with two running bounds so that no point waits on the one before, else six scalars (with
+ * Eigen vectors the compiler spilled one bound to the stack and every point waited on the
+ * store). Minima and maxima are exact, so both paths give the same box (up to the sign of
+ * a zero bound, which no cell index sees). */
 inline void
-boundingBox(const float* xyz, std::size_t count, Eigen::Vector3f& min, Eigen::Vector3f& max)
+boundingBox(const std::vector<Eigen::Vector3f>& points, Eigen::Vector3f& min, Eigen::Vector3f& max)
 {
+  static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "points are packed x, y, z");
+  const float* xyz = points.front().data();
+  const std::size_t count = points.size();
   std::size_t i = 0;
   float x0 = xyz[0], y0 = xyz[1], z0 = xyz[2];
   float x1 = x0, y1 = y0, z1 = z0;
@@ -81,14 +62,6 @@ boundingBox(const float* xyz, std::size_t count, Eigen::Vector3f& min, Eigen::Ve
   }
   min = Eigen::Vector3f(x0, y0, z0);
   max = Eigen::Vector3f(x1, y1, z1);
-}
-
-/** \brief Bounding box of the non-empty \a points. */
-inline void
-boundingBox(const std::vector<Eigen::Vector3f>& points, Eigen::Vector3f& min, Eigen::Vector3f& max)
-{
-  static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "points are packed x, y, z");
-  boundingBox(points.front().data(), points.size(), min, max);
 }
 
 } // namespace core
