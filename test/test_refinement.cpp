@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -305,4 +306,38 @@ TEST(Verification, TargetAxesTurnTheReportedCovarianceAndDirections)
   EXPECT_TRUE(turned.covariance.isApprox(turn * level.covariance * turn.transpose(), 1e-9));
   EXPECT_TRUE(turned.observability_directions.isApprox(turn * level.observability_directions, 1e-9));
   EXPECT_EQ(turned.confidence, level.confidence);
+}
+
+TEST(TargetDistributions, FindBlockGivesFindsAnswers)
+{
+  // The lookups of a real scan's cubes, block by block, against one at a time: points on
+  // the scan, near it, far outside the table's reach and not finite, in blocks of every
+  // length up to the largest.
+  const PointList points = bundledScan();
+  const TargetDistributions target(points, 0.7, 4, 0.05);
+  ASSERT_GT(target.size(), 1000u);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> jitter(-1.0f, 1.0f);
+  std::vector<Eigen::Vector3f> queries;
+  for (std::size_t i = 0; i < points.size(); i += 97)
+    queries.push_back(points[i] + Eigen::Vector3f(jitter(rng), jitter(rng), jitter(rng)));
+  queries.push_back(Eigen::Vector3f::Constant(1e9f));
+  queries.push_back(Eigen::Vector3f::Constant(-1e9f));
+  queries.push_back(Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  std::size_t found = 0, passes = 0;
+  constexpr std::size_t kMost = TargetDistributions::kFindBlock;
+  std::int32_t indices[kMost];
+  for (std::size_t length = 1; length <= kMost; length += 21, ++passes)
+    for (std::size_t begin = 0; begin < queries.size(); begin += length) {
+      const std::size_t count = std::min(length, queries.size() - begin);
+      target.findBlock(&queries[begin], count, indices);
+      for (std::size_t k = 0; k < count; ++k) {
+        ASSERT_EQ(indices[k], target.find(queries[begin + k])) << "query " << begin + k;
+        found += indices[k] >= 0;
+      }
+    }
+  // Jittered by up to a metre, a good share still falls into a cube: hits and misses are
+  // both compared.
+  EXPECT_GT(found, passes * queries.size() / 4);
+  EXPECT_LT(found, passes * queries.size());
 }

@@ -261,6 +261,45 @@ TargetDistributions::find(const Eigen::Vector3f& p) const
   return inside ? findSlot(table_, mask_, key) : -1;
 }
 
+void
+TargetDistributions::findBlock(const Eigen::Vector3f* points,
+                               std::size_t count,
+                               std::int32_t* indices) const
+{
+  std::uint64_t keys[kFindBlock];
+  std::uint64_t slots[kFindBlock];
+  count = std::min(count, kFindBlock);
+  if (distributions_.empty()) {
+    std::fill(indices, indices + count, -1);
+    return;
+  }
+  // First every key and its first slot, asking for the slot's line; then the probes, which
+  // find those lines arrived, asking for the distributions' lines in turn.
+  for (std::size_t k = 0; k < count; ++k) {
+    bool inside = false;
+    keys[k] = keyOf(points[k], inside);
+    slots[k] = inside ? mix(keys[k] + 1) & mask_ : ~std::uint64_t{0};
+    if (inside)
+      __builtin_prefetch(&table_[slots[k]]);
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    indices[k] = -1;
+    if (slots[k] == ~std::uint64_t{0})
+      continue;
+    for (std::uint64_t slot = slots[k];; slot = (slot + 1) & mask_) {
+      if (table_[slot].first == keys[k] + 1) {
+        indices[k] = table_[slot].second;
+        const char* line = reinterpret_cast<const char*>(&distributions_[indices[k]]);
+        __builtin_prefetch(line);
+        __builtin_prefetch(line + sizeof(Distribution) - 1);
+        break;
+      }
+      if (table_[slot].first == 0)
+        break;
+    }
+  }
+}
+
 RefinementResult
 refineToDistributions(const TargetDistributions& target,
                       const SourceSamples& source,
@@ -294,19 +333,26 @@ refineToDistributions(const TargetDistributions& target,
       p.g.setZero();
       p.matched = 0;
       const std::size_t end = n * (chunk + 1) / kChunks;
-      for (std::size_t i = n * chunk / kChunks; i < end; ++i) {
-        const Eigen::Vector3f q = r * source.samples[i].position + t;
-        const int k = target.find(q);
-        if (k < 0)
-          continue;
-        const TargetDistributions::Distribution& dist = target[k];
-        const Eigen::Vector3f e = q - dist.mean;
-        const Eigen::Matrix3f& info = dist.information;
-        const float m = e.dot(info * e);
-        // Cauchy weight: residuals far beyond the kernel scale barely pull.
-        const float w = 1.0f / (1.0f + m / c2);
-        addToNormalEquations(q, e, info, w, p.h, p.g);
-        ++p.matched;
+      Eigen::Vector3f q[TargetDistributions::kFindBlock];
+      std::int32_t found[TargetDistributions::kFindBlock];
+      for (std::size_t begin = n * chunk / kChunks; begin < end;
+           begin += TargetDistributions::kFindBlock) {
+        const std::size_t count = std::min(end - begin, TargetDistributions::kFindBlock);
+        for (std::size_t k = 0; k < count; ++k)
+          q[k] = r * source.samples[begin + k].position + t;
+        target.findBlock(q, count, found);
+        for (std::size_t k = 0; k < count; ++k) {
+          if (found[k] < 0)
+            continue;
+          const TargetDistributions::Distribution& dist = target[found[k]];
+          const Eigen::Vector3f e = q[k] - dist.mean;
+          const Eigen::Matrix3f& info = dist.information;
+          const float m = e.dot(info * e);
+          // Cauchy weight: residuals far beyond the kernel scale barely pull.
+          const float w = 1.0f / (1.0f + m / c2);
+          addToNormalEquations(q[k], e, info, w, p.h, p.g);
+          ++p.matched;
+        }
       }
       // addToNormalEquations() leaves the lower left block to the caller.
       p.h.bottomLeftCorner<3, 3>() = p.h.topRightCorner<3, 3>().transpose();

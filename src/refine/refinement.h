@@ -47,6 +47,16 @@ public:
   int
   find(const Eigen::Vector3f& p) const;
 
+  /** \brief find() for each of \a count points, into \a indices. The same answers, with the
+   * lookups' memory reads started for the whole block before any is used: one at a time,
+   * each sample waits on two reads of a table larger than the caches. kFindBlock or fewer
+   * points; the distributions found are being read when it returns. */
+  void
+  findBlock(const Eigen::Vector3f* points, std::size_t count, std::int32_t* indices) const;
+
+  /** Most points findBlock() takes at once. */
+  static constexpr std::size_t kFindBlock = 64;
+
   /** \brief Mean and inverse covariance of one cube's points, side by side so a lookup
    * touches one cache line, and the surface normal the covariance is flattened across. */
   struct Distribution {
