@@ -5,6 +5,7 @@
 
 #include "util/left_increment.h"
 #include "util/parallel.h"
+#include "util/prefetch.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -112,25 +113,39 @@ makeSlots(Slots& slots, std::size_t entries)
   return capacity - 1;
 }
 
+/** The slot where the probes for \a key start. */
+std::uint64_t
+firstSlot(std::uint64_t mask, std::uint64_t key)
+{
+  return mix(key + 1) & mask;
+}
+
 void
 insertSlot(Slots& slots, std::uint64_t mask, std::uint64_t key, std::int32_t index)
 {
-  for (std::uint64_t slot = mix(key + 1) & mask;; slot = (slot + 1) & mask)
+  for (std::uint64_t slot = firstSlot(mask, key);; slot = (slot + 1) & mask)
     if (slots[slot].first == 0) {
       slots[slot] = {key + 1, index};
       return;
     }
 }
 
+/** The index stored for \a key, probing from its first slot \a slot; -1 if none. */
 int
-findSlot(const Slots& slots, std::uint64_t mask, std::uint64_t key)
+findSlotFrom(const Slots& slots, std::uint64_t mask, std::uint64_t key, std::uint64_t slot)
 {
-  for (std::uint64_t slot = mix(key + 1) & mask;; slot = (slot + 1) & mask) {
+  for (;; slot = (slot + 1) & mask) {
     if (slots[slot].first == key + 1)
       return slots[slot].second;
     if (slots[slot].first == 0)
       return -1;
   }
+}
+
+int
+findSlot(const Slots& slots, std::uint64_t mask, std::uint64_t key)
+{
+  return findSlotFrom(slots, mask, key, firstSlot(mask, key));
 }
 
 /** Covariance of the points of the 3x3x3 cells around \a centre's (cell moments pooled). */
@@ -266,6 +281,7 @@ TargetDistributions::findBlock(const Eigen::Vector3f* points,
                                std::size_t count,
                                std::int32_t* indices) const
 {
+  constexpr std::uint64_t kOutside = ~std::uint64_t{0};
   std::uint64_t keys[kFindBlock];
   std::uint64_t slots[kFindBlock];
   count = std::min(count, kFindBlock);
@@ -278,25 +294,18 @@ TargetDistributions::findBlock(const Eigen::Vector3f* points,
   for (std::size_t k = 0; k < count; ++k) {
     bool inside = false;
     keys[k] = keyOf(points[k], inside);
-    slots[k] = inside ? mix(keys[k] + 1) & mask_ : ~std::uint64_t{0};
+    slots[k] = inside ? firstSlot(mask_, keys[k]) : kOutside;
     if (inside)
-      __builtin_prefetch(&table_[slots[k]]);
+      prefetch(&table_[slots[k]]);
   }
   for (std::size_t k = 0; k < count; ++k) {
-    indices[k] = -1;
-    if (slots[k] == ~std::uint64_t{0})
+    indices[k] = slots[k] == kOutside ? -1 : findSlotFrom(table_, mask_, keys[k], slots[k]);
+    if (indices[k] < 0)
       continue;
-    for (std::uint64_t slot = slots[k];; slot = (slot + 1) & mask_) {
-      if (table_[slot].first == keys[k] + 1) {
-        indices[k] = table_[slot].second;
-        const char* line = reinterpret_cast<const char*>(&distributions_[indices[k]]);
-        __builtin_prefetch(line);
-        __builtin_prefetch(line + sizeof(Distribution) - 1);
-        break;
-      }
-      if (table_[slot].first == 0)
-        break;
-    }
+    // A distribution may straddle two lines.
+    const char* first = reinterpret_cast<const char*>(&distributions_[indices[k]]);
+    prefetch(first);
+    prefetch(first + sizeof(Distribution) - 1);
   }
 }
 
