@@ -341,28 +341,19 @@ refineToDistributions(const TargetDistributions& target,
       p.h.setZero();
       p.g.setZero();
       p.matched = 0;
-      const std::size_t end = n * (chunk + 1) / kChunks;
-      Eigen::Vector3f q[TargetDistributions::kFindBlock];
-      std::int32_t found[TargetDistributions::kFindBlock];
-      for (std::size_t begin = n * chunk / kChunks; begin < end;
-           begin += TargetDistributions::kFindBlock) {
-        const std::size_t count = std::min(end - begin, TargetDistributions::kFindBlock);
-        for (std::size_t k = 0; k < count; ++k)
-          q[k] = r * source.samples[begin + k].position + t;
-        target.findBlock(q, count, found);
-        for (std::size_t k = 0; k < count; ++k) {
-          if (found[k] < 0)
-            continue;
-          const TargetDistributions::Distribution& dist = target[found[k]];
-          const Eigen::Vector3f e = q[k] - dist.mean;
-          const Eigen::Matrix3f& info = dist.information;
-          const float m = e.dot(info * e);
-          // Cauchy weight: residuals far beyond the kernel scale barely pull.
-          const float w = 1.0f / (1.0f + m / c2);
-          addToNormalEquations(q[k], e, info, w, p.h, p.g);
-          ++p.matched;
-        }
-      }
+      visitInCubes(target, source, r, t, n * chunk / kChunks, n * (chunk + 1) / kChunks, 1,
+                   [&](const Eigen::Vector3f& q, int k) {
+                     if (k < 0)
+                       return;
+                     const TargetDistributions::Distribution& dist = target[k];
+                     const Eigen::Vector3f e = q - dist.mean;
+                     const Eigen::Matrix3f& info = dist.information;
+                     const float m = e.dot(info * e);
+                     // Cauchy weight: residuals far beyond the kernel scale barely pull.
+                     const float w = 1.0f / (1.0f + m / c2);
+                     addToNormalEquations(q, e, info, w, p.h, p.g);
+                     ++p.matched;
+                   });
       // addToNormalEquations() leaves the lower left block to the caller.
       p.h.bottomLeftCorner<3, 3>() = p.h.topRightCorner<3, 3>().transpose();
     });

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -93,6 +94,33 @@ private:
   std::vector<std::pair<std::uint64_t, std::int32_t>> table_;
   std::uint64_t mask_ = 0;
 };
+
+/** \brief Calls \a visit(q, k) for samples begin, begin + stride, ... (before \a end) of
+ * \a source moved by \a rotation, \a translation: q the moved position, k the index of the
+ * distribution of \a target whose cube holds it, or -1. The samples are looked up
+ * TargetDistributions::kFindBlock at a time (findBlock()) and visited in order. */
+template <typename Visit>
+void
+visitInCubes(const TargetDistributions& target,
+             const SourceSamples& source,
+             const Eigen::Matrix3f& rotation,
+             const Eigen::Vector3f& translation,
+             std::size_t begin,
+             std::size_t end,
+             std::size_t stride,
+             const Visit& visit)
+{
+  Eigen::Vector3f q[TargetDistributions::kFindBlock];
+  std::int32_t found[TargetDistributions::kFindBlock];
+  for (std::size_t i = begin; i < end;) {
+    std::size_t count = 0;
+    for (; count < TargetDistributions::kFindBlock && i < end; ++count, i += stride)
+      q[count] = rotation * source.samples[i].position + translation;
+    target.findBlock(q, count, found);
+    for (std::size_t k = 0; k < count; ++k)
+      visit(q[k], found[k]);
+  }
+}
 
 /** \brief Options of the refinement. */
 struct RefinementOptions {
