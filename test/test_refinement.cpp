@@ -4,6 +4,7 @@
 #include "refine/refinement.h"
 #include "features/source_samples.h"
 #include "features/voxel_grid.h"
+#include "verify/pose_evidence.h"
 #include "verify/verification.h"
 
 #include <pcl_mi/io.h>
@@ -340,4 +341,42 @@ TEST(TargetDistributions, FindBlockGivesFindsAnswers)
   // both compared.
   EXPECT_GT(found, passes * queries.size() / 4);
   EXPECT_LT(found, passes * queries.size());
+}
+
+TEST(TargetDistributions, SparseCubesPullTheRefinementButAreNoEvidence)
+{
+  // A floor of 0.7 m cubes, dense but for the centre cube, which holds two points: it takes
+  // the floor's surface from its neighbours and pulls samples onto it, but a sample there
+  // is not counted as evidence, which asks for cubes of kEvidenceMinimumPoints.
+  PointList points;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (i != 1 || j != 1)
+        for (int k = 0; k < 6; ++k)
+          for (int l = 0; l < 6; ++l)
+            points.emplace_back(0.7f * i + 0.05f + 0.1f * k, 0.7f * j + 0.05f + 0.1f * l,
+                                0.35f);
+  const Eigen::Vector3f sparse_point(1.0f, 1.0f, 0.35f);
+  points.push_back(sparse_point);
+  points.emplace_back(1.2f, 1.1f, 0.35f);
+
+  const TargetDistributions dense_only(points, 0.7, 4, 0.05);
+  EXPECT_EQ(dense_only.size(), 8u);
+  EXPECT_LT(dense_only.find(sparse_point), 0);
+
+  const TargetDistributions target(points, 0.7, 2, 0.05);
+  ASSERT_EQ(target.size(), 9u);
+  const int centre = target.find(sparse_point);
+  ASSERT_GE(centre, 0);
+  EXPECT_EQ(target[centre].points, 2u);
+  EXPECT_GT(std::abs(target[centre].normal.z()), 0.99f);
+
+  const PointList samples{Eigen::Vector3f(1.1f, 1.1f, 0.36f), Eigen::Vector3f(0.3f, 0.3f, 0.36f)};
+  const SourceSamples source = makeSourceSamples(samples, 0.05);
+  ASSERT_EQ(source.samples.size(), 2u);
+  const PoseEvidence evidence = gatherPoseEvidence(target, source, Eigen::Matrix3d::Identity(),
+                                                   Eigen::Vector3d::Zero());
+  EXPECT_EQ(evidence.samples, 2u);
+  EXPECT_EQ(evidence.matched, 1u);
+  EXPECT_EQ(evidence.inliers, 1u);
 }

@@ -743,8 +743,9 @@ loadBundledPair(const std::string& set,
 // with MI on every level, the coarser grids rank a wrong optimum first, which the
 // verification does not trust, and of the search's runners-up the finest grid picks the
 // right one. (With the defaults' normalised MI on the coarsest level, no optimum of this
-// flat pair is trusted. The refinement's coarser stages, which would mask the mechanism, are
-// off.)
+// flat pair is trusted. One coarser refinement stage instead of two: two pull the wrong
+// optimum in as well, which masks the mechanism; without one the finest cubes alone leave
+// this pair about 0.3 m off.)
 TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
 {
   Cloud::Ptr source, target;
@@ -752,7 +753,7 @@ TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
   ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
   reg.setCoarseNormalizedMI(false);
-  reg.setNarrowViewRefinementStages(0);
+  reg.setNarrowViewRefinementStages(1);
   reg.setInputSource(source);
   reg.setInputTarget(target);
   Cloud aligned;

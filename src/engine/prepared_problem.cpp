@@ -22,8 +22,22 @@ namespace core {
 
 namespace {
 
-/** Fewest points a target cube needs to give the refinement a distribution. */
+/** Fewest points a target cube needs to give the refinement a distribution: enough for a
+ * plane of its own. */
 constexpr int kRefinementMinimumPoints = 4;
+/** The same in a sparse target (kSparseTargetShare), on the finest refinement cubes: two
+ * points take their surface from the cube's neighbours where those hold one
+ * (TargetDistributions). A scan of a few thousand points leaves most of its small cubes with
+ * fewer than four, and without them the samples there find no surface (docs/benchmarks.md,
+ * "Sparse cubes"). The coarser stages of a narrow view keep kRefinementMinimumPoints: in
+ * their larger cubes two or three points are stray returns, whose wide pull moved results
+ * onto the wrong stretch of a repeated facade. */
+constexpr int kSparseRefinementMinimumPoints = 2;
+/** Share of the target's points in cubes of fewer than kRefinementMinimumPoints from which
+ * the target counts as sparse: a few percent in spinning scans of 64 beams or more and in
+ * dense indoor scans, where the sparse cubes are stray far returns that cost time and add
+ * no accuracy; about 40-80 % in a Livox scan or a thinned 64-beam one. */
+constexpr double kSparseTargetShare = 0.25;
 /** Noise (standard deviation) added to the refinement's target covariances, as a fraction
  * of the MI resolution: about the range noise of a spinning LiDAR at 1 m voxels. */
 constexpr double kRefinementNoiseFraction = 0.05;
@@ -56,6 +70,22 @@ describeOutliers(const char* which, const LocalCloud& cloud, double gap)
     << " usable points as far outliers: an empty gap of " << gap
     << " (64 voxels) or more parts them from its largest group of points along x, y or z";
   return s.str();
+}
+
+/** kSparseRefinementMinimumPoints where the target is sparse (kSparseTargetShare of its
+ * points in \a cubes of fewer than kRefinementMinimumPoints), else kRefinementMinimumPoints. */
+int
+finestRefinementMinimumPoints(const SourceSamples& cubes)
+{
+  std::size_t sparse = 0, all = 0;
+  for (const SourceSample& c : cubes.samples) {
+    all += c.count;
+    if (c.count < static_cast<std::uint32_t>(kRefinementMinimumPoints))
+      sparse += c.count;
+  }
+  return static_cast<double>(sparse) >= kSparseTargetShare * static_cast<double>(all)
+             ? kSparseRefinementMinimumPoints
+             : kRefinementMinimumPoints;
 }
 
 } // namespace
@@ -364,7 +394,7 @@ PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks, bo
   tasks.emplace_back([this, estimate_up] {
     const SourceSamples cubes =
         makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
-    distributions_ = makeDistributions(cubes);
+    distributions_ = makeDistributions(cubes, finestRefinementMinimumPoints(cubes));
     if (estimate_up)
       target_up_ = estimateUpDirection(cubes);
   });
@@ -381,16 +411,18 @@ PreparedProblem::distributions(int stage)
   if (coarser_distributions_.size() <= i)
     coarser_distributions_.resize(i + 1);
   if (!coarser_distributions_[i])
-    coarser_distributions_[i] = makeDistributions(makeSourceSamples(
-        target_.points, std::ldexp(parameters_.effectiveRefinementResolution(), stage)));
+    coarser_distributions_[i] = makeDistributions(
+        makeSourceSamples(target_.points,
+                          std::ldexp(parameters_.effectiveRefinementResolution(), stage)),
+        kRefinementMinimumPoints);
   return *coarser_distributions_[i];
 }
 
 std::unique_ptr<TargetDistributions>
-PreparedProblem::makeDistributions(const SourceSamples& cubes) const
+PreparedProblem::makeDistributions(const SourceSamples& cubes, int min_points) const
 {
   return std::make_unique<TargetDistributions>(
-      cubes, kRefinementMinimumPoints, kRefinementNoiseFraction * parameters_.grid.resolution);
+      cubes, min_points, kRefinementNoiseFraction * parameters_.grid.resolution);
 }
 
 bool

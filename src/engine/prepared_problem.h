@@ -213,9 +213,9 @@ private:
   buildSourceSamples();
   FeatureBinning
   levelBinning(double level_resolution) const;
-  /** The refinement's distributions of the target's \a cubes, at every stage alike. */
+  /** The refinement's distributions of the target's \a cubes of \a min_points or more. */
   std::unique_ptr<TargetDistributions>
-  makeDistributions(const SourceSamples& cubes) const;
+  makeDistributions(const SourceSamples& cubes, int min_points) const;
 
   Parameters requested_, parameters_;
   /** deriveResolution() of the target; 0 while not needed or without a target. */

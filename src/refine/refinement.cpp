@@ -256,7 +256,7 @@ TargetDistributions::TargetDistributions(const SourceSamples& cells,
       flattened = flattenedCovariance(own.eigenvectors(), spread, in_surface_floor);
     Eigen::Matrix3f covariance = flattened.cast<float>();
     covariance.diagonal().array() += noise;
-    distributions_.push_back({s.position, covariance.inverse(), normal.cast<float>()});
+    distributions_.push_back({s.position, covariance.inverse(), normal.cast<float>(), s.count});
   }
   mask_ = makeSlots(table_, distributions_.size());
   for (std::size_t i = 0; i < distributions_.size(); ++i) {

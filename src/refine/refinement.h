@@ -59,11 +59,13 @@ public:
   static constexpr std::size_t kFindBlock = 64;
 
   /** \brief Mean and inverse covariance of one cube's points, side by side so a lookup
-   * touches one cache line, and the surface normal the covariance is flattened across. */
+   * touches one cache line, the surface normal the covariance is flattened across, and
+   * how many points the cube holds. */
   struct Distribution {
     Eigen::Vector3f mean;
     Eigen::Matrix3f information;
     Eigen::Vector3f normal;
+    std::uint32_t points;
   };
 
   std::size_t

@@ -26,7 +26,7 @@ gatherPoseEvidence(const TargetDistributions& target,
   visitInCubes(target, source, r, t, 0, source.samples.size(), stride,
                [&](const Eigen::Vector3f& q, int k) {
                  ++evidence.samples;
-                 if (k < 0)
+                 if (k < 0 || target[k].points < kEvidenceMinimumPoints)
                    return;
                  ++evidence.matched;
                  const TargetDistributions::Distribution& dist = target[k];

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <cstdint>
 
 namespace pcl_mi {
 namespace core {
@@ -18,7 +19,7 @@ namespace core {
 /** \brief Counts and point-to-plane information of the source samples at one pose. */
 struct PoseEvidence {
   std::size_t samples = 0; ///< source samples looked at
-  std::size_t matched = 0; ///< samples inside a target cube that has a distribution
+  std::size_t matched = 0; ///< samples inside a target cube of kEvidenceMinimumPoints or more
   std::size_t inliers = 0; ///< matched samples within kInlierMahalanobis of the distribution
   /** Sum over the inliers of a^T a, a = d(n . e) / d[omega, delta]: how the distance of a
    * sample from its cube's surface (normal n) changes under a left increment of the pose
@@ -34,6 +35,12 @@ struct PoseEvidence {
 /** Squared Mahalanobis distance below which a sample lies on its cube's surface: three
  * standard deviations across it. */
 constexpr double kInlierMahalanobis = 9.0;
+
+/** Fewest points a target cube needs to count as evidence. The refinement also pulls
+ * samples into sparser cubes, whose surface may come from their neighbours; a cube of its
+ * own four or more points is firmer evidence that a sample found the surface, and the
+ * confidence model was fitted on such cubes. */
+constexpr std::uint32_t kEvidenceMinimumPoints = 4;
 
 /** \brief The evidence of every \a stride-th sample of \a source moved by \a rotation,
  * \a translation (source local to target local) against \a target; the point-to-plane
