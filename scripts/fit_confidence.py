@@ -13,7 +13,14 @@ With -weights W1,...,W5 the five weights are kept (the model's, in the order abo
 only the intercept is fitted: a recalibration after a change of the engine moved the
 results, which keeps what the weights learnt about unrelated scenes.
 
-Usage: fit_confidence.py [-success T,R] [-weights W1,...,W5] A.csv B.csv ...
+With -below_threshold B0,W1,...,W5 the model (intercept and weights) is kept and only the
+logit z below logit(THRESHOLD) is recalibrated, to a * z + b, fitted over the pooled
+results below the threshold (each result weighs the same, as in the reliability
+diagram); every verdict stays as it is. It prints a and b and the reliability diagram
+in sample and with each set left out.
+
+Usage: fit_confidence.py [-success T,R] [-weights W1,...,W5 | -below_threshold B0,W1,...,W5]
+                         A.csv B.csv ...
 """
 import csv
 import os
@@ -76,16 +83,69 @@ def predict(b, x):
     return 1.0 / (1.0 + np.exp(-(b[0] + x @ b[1:])))
 
 
+def fit_below_threshold(z, y):
+    """a, b of the logistic fit of y on a * z + b over the results with z below the
+    threshold's logit."""
+    below = z < np.log(THRESHOLD / (1.0 - THRESHOLD))
+    x1 = np.column_stack([z[below], np.ones(below.sum())])
+    b = np.array([1.0, 0.0])
+    for _ in range(100):
+        p = 1.0 / (1.0 + np.exp(-x1 @ b))
+        step = np.linalg.solve((x1 * (p * (1 - p))[:, None]).T @ x1, x1.T @ (p - y[below]))
+        b -= step
+        if np.abs(step).max() < 1e-10:
+            break
+    return b
+
+
+def recalibrated(ab, z):
+    z0 = np.log(THRESHOLD / (1.0 - THRESHOLD))
+    return 1.0 / (1.0 + np.exp(-np.where(z < z0, ab[0] * z + ab[1], z)))
+
+
+def print_reliability(title, p, y):
+    print("\n%s: decile, rows, observed success - mean confidence (points)" % title)
+    for k in range(10):
+        m = (p >= k / 10.0) & ((p < (k + 1) / 10.0) if k < 9 else (p <= 1.0))
+        if m.any():
+            print("  %.1f-%.1f %5d %+6.1f" % (k / 10.0, (k + 1) / 10.0, m.sum(),
+                                              100.0 * (y[m].mean() - p[m].mean())))
+
+
+def recalibrate(sets, model):
+    """The -below_threshold mode."""
+    z = {n: model[0] + sets[n][0] @ model[1:] for n in sets}
+    y = {n: sets[n][1].astype(float) for n in sets}
+    ab = fit_below_threshold(np.concatenate(list(z.values())), np.concatenate(list(y.values())))
+    print("below the threshold: z -> %.3f * z + %.3f" % (ab[0], ab[1]))
+    pooled = np.concatenate(list(z.values()))
+    print_reliability("In sample", recalibrated(ab, pooled), np.concatenate(list(y.values())))
+    held_out = []
+    for name in sets:
+        others = [n for n in sets if n != name]
+        ab_others = fit_below_threshold(np.concatenate([z[n] for n in others]),
+                                        np.concatenate([y[n] for n in others]))
+        held_out.append(recalibrated(ab_others, z[name]))
+    print_reliability("Each set left out", np.concatenate(held_out),
+                      np.concatenate(list(y.values())))
+    return 0
+
+
 def main(argv):
     args, files, bound = argv[1:], [], (0.5, 2.0)
-    weights = None
-    while len(args) >= 2 and args[0] in ("-success", "-weights"):
+    weights = model = None
+    while len(args) >= 2 and args[0] in ("-success", "-weights", "-below_threshold"):
         values = tuple(float(v) for v in args[1].split(","))
         if args[0] == "-success":
             bound = values
-        else:
+        elif args[0] == "-weights":
             weights = np.array(values)
+        else:
+            model = np.array(values)
         args = args[2:]
+    if model is not None:
+        return recalibrate({os.path.splitext(os.path.basename(p))[0]: load(p, bound)
+                            for p in args}, model)
     fitter = fit if weights is None else lambda x, y, w: fit_intercept(x, y, w, weights)
     sets = {os.path.splitext(os.path.basename(p))[0]: load(p, bound) for p in args}
 
