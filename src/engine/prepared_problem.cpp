@@ -25,18 +25,18 @@ namespace {
 /** Fewest points a target cube needs to give the refinement a distribution: enough for a
  * plane of its own. */
 constexpr int kRefinementMinimumPoints = 4;
-/** The same in a sparse target (kSparseTargetShare), on the finest refinement cubes: two
- * points take their surface from the cube's neighbours where those hold one
- * (TargetDistributions). A scan of a few thousand points leaves most of its small cubes with
- * fewer than four, and without them the samples there find no surface (docs/benchmarks.md,
- * "Sparse cubes"). The coarser stages of a narrow view keep kRefinementMinimumPoints: in
+/** The same in a sparse target (kSparseTargetShare), on the finest refinement cubes; such
+ * a cube is mostly a strip (two points always are), which takes its surface from its
+ * neighbours where those hold one (TargetDistributions). A scan of a few thousand points
+ * leaves most of its small cubes with fewer than four, and without them the samples there
+ * find no surface (docs/benchmarks.md, "Sparse cubes"). The coarser stages of a narrow view keep kRefinementMinimumPoints: in
  * their larger cubes two or three points are stray returns, whose wide pull moved results
  * onto the wrong stretch of a repeated facade. */
 constexpr int kSparseRefinementMinimumPoints = 2;
 /** Share of the target's points in cubes of fewer than kRefinementMinimumPoints from which
- * the target counts as sparse: a few percent in spinning scans of 64 beams or more and in
- * dense indoor scans, where the sparse cubes are stray far returns that cost time and add
- * no accuracy; about 40-80 % in a Livox scan or a thinned 64-beam one. */
+ * the target counts as sparse: 3-13 % in the shared KITTI, Seosan and PCL room scans, where
+ * the sparse cubes are stray far returns that cost time and add no accuracy; about 40-80 %
+ * in the shared Livox and Riverside scans. */
 constexpr double kSparseTargetShare = 0.25;
 /** Noise (standard deviation) added to the refinement's target covariances, as a fraction
  * of the MI resolution: about the range noise of a spinning LiDAR at 1 m voxels. */
