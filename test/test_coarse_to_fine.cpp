@@ -190,8 +190,9 @@ TEST(CoarseToFine, ScannedStartsReachAWellTurnedInYawAndPitch)
   EXPECT_NEAR(with.best.x[3], 0.7, 0.02);
   // Only the well's turn scores better than the guess: the bowl's other turns are no lead.
   ASSERT_EQ(with.scanned_turns.size(), 1u);
-  EXPECT_NEAR(with.scanned_turns[0][0], -0.35, 1e-12);
-  EXPECT_NEAR(with.scanned_turns[0][1], 0.7, 1e-12);
+  EXPECT_NEAR(with.scanned_turns[0][0], 0.0, 1e-12); // no roll scanned
+  EXPECT_NEAR(with.scanned_turns[0][1], -0.35, 1e-12);
+  EXPECT_NEAR(with.scanned_turns[0][2], 0.7, 1e-12);
   // Where the guess scores best on the grid, no turn is a lead.
   SyntheticCosts bowl_only(2, [](int, const Eigen::VectorXd& x) { return x.squaredNorm(); });
   EXPECT_TRUE(pcl_mi::core::searchCoarseToFine(bowl_only, o).scanned_turns.empty());
@@ -201,6 +202,41 @@ TEST(CoarseToFine, ScannedStartsReachAWellTurnedInYawAndPitch)
   const auto one_thread = pcl_mi::core::searchCoarseToFine(serial, o);
   EXPECT_EQ(one_thread.best.x, with.best.x);
   EXPECT_EQ(one_thread.evaluations, with.evaluations);
+}
+
+TEST(CoarseToFine, ScannedStartsReachAWellTurnedInRollWhereAsked)
+{
+  // Search vector [x, y, roll, pitch, yaw]: a narrow well at roll -0.525 and yaw 0.35 rad
+  // (a sensor tilted sideways by 30 deg), on a bowl whose floor is at the guess. The turns
+  // of yaw and pitch miss it; with scan_roll the grid also turns in roll and finds it.
+  auto f = [](int, const Eigen::VectorXd& x) {
+    const double xy = x[0] * x[0] + x[1] * x[1];
+    const double roll = (x[2] + 0.525) / 0.05, pitch = x[3] / 0.05, yaw = (x[4] - 0.35) / 0.05;
+    return 1.0 + xy + x.tail<3>().squaredNorm() -
+           2.0 * std::exp(-roll * roll - pitch * pitch - yaw * yaw - xy);
+  };
+  CoarseToFineOptions o;
+  o.steps = (Eigen::VectorXd(5) << 8.0, 8.0, 0.35, 0.35, 0.8).finished();
+  o.tolerance = (Eigen::VectorXd(5) << 0.005, 0.005, 0.0005, 0.0005, 0.0005).finished();
+  o.translational = {true, true, false, false, false};
+  o.x_index = 0;
+  o.y_index = 1;
+  o.roll_index = 2;
+  o.pitch_index = 3;
+  o.yaw_index = 4;
+  o.scanned_starts = 2;
+  SyntheticCosts without_roll(2, f);
+  EXPECT_GT(pcl_mi::core::searchCoarseToFine(without_roll, o).best.value, 0.5);
+  o.scan_roll = true;
+  SyntheticCosts with_roll(2, f);
+  const auto found = pcl_mi::core::searchCoarseToFine(with_roll, o);
+  EXPECT_LT(found.best.value, 0.0);
+  EXPECT_NEAR(found.best.x[2], -0.525, 0.02);
+  EXPECT_NEAR(found.best.x[4], 0.35, 0.02);
+  ASSERT_EQ(found.scanned_turns.size(), 1u);
+  EXPECT_NEAR(found.scanned_turns[0][0], -0.525, 1e-12);
+  EXPECT_NEAR(found.scanned_turns[0][1], 0.0, 1e-12);
+  EXPECT_NEAR(found.scanned_turns[0][2], 0.35, 1e-12);
 }
 
 TEST(CoarseToFine, TheBudgetCapsEveryIterationAndThreadsDoNotChangeTheResult)

@@ -123,6 +123,20 @@ private:
   std::vector<JointHistogram> batch_histograms_[2];
 };
 
+/** True where both clouds show an up direction and the guess leaves them more than
+ * kLevelingDegrees apart: a sensor that tilts between its scans, which the scanned turns
+ * then also look for in roll. A car's narrow view keeps its up, and there turns in roll
+ * that score well on the coarse grid only displace the right ones (docs/benchmarks.md,
+ * "Scanned turns in roll"). */
+bool
+upDirectionsDisagree(const core::PreparedProblem& problem, const Eigen::Matrix4d& guess)
+{
+  const std::optional<Eigen::Vector3d>& source_up = problem.sourceUp();
+  const std::optional<Eigen::Vector3d>& target_up = problem.targetUp();
+  return !source_up || !target_up ||
+         core::apartBeyondLeveling(guess.topLeftCorner<3, 3>() * *source_up, *target_up);
+}
+
 /** Takes the trust from \a result, which passed the reliability test, where a pose a few
  * voxels along its least constrained direction scores a higher MI on the finest grid
  * (core::higherAlongLeastConstrained()). */
@@ -344,8 +358,10 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     widenTilt(space, p.search.narrow_view_tilt_step, options);
   if (narrow_view && p.search.narrow_view_yaw_start > 0.0)
     options.yaw_starts = {p.search.narrow_view_yaw_start, -p.search.narrow_view_yaw_start};
-  if (narrow_view)
+  if (narrow_view) {
     options.scanned_starts = p.search.narrow_view_scanned_starts;
+    options.scan_roll = upDirectionsDisagree(problem, guess);
+  }
   // Normalised MI on the coarsest level only where finer levels follow it.
   const int coarsest = problem.levels() - 1;
   MutualInformationCosts costs(

@@ -79,6 +79,7 @@ SearchSpace::searchOptions(const Parameters& parameters) const
   }
   o.x_index = index(0);
   o.y_index = index(1);
+  o.roll_index = index(3);
   o.pitch_index = index(4);
   o.yaw_index = index(5);
   o.heading_starts = s.heading_starts;

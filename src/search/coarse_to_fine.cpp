@@ -34,13 +34,13 @@ constexpr int kMaxStartCandidates = 8;
 /** Rotation (rad) below which two coarse optima half a coarse voxel apart are one basin. */
 constexpr double kCandidateSeparationRad = 0.2;
 
-/** The grid of turns that scanned starts are chosen from: yaw and pitch in steps of
- * kScanStepRad (10 degrees), up to kScanYawSteps and kScanPitchSteps of them either way. A
- * handheld narrow view turns mostly in yaw and tilts less. */
+/** The grid of turns that scanned starts are chosen from: yaw, pitch and (where asked) roll
+ * in steps of kScanStepRad (10 degrees), up to kScanYawSteps and kScanTiltSteps of them
+ * either way. A handheld narrow view turns mostly in yaw and tilts less. */
 constexpr double kScanStepRad = 0.175;
 constexpr int kScanYawSteps = 6;
-constexpr int kScanPitchSteps = 3;
-/** A scanned turn closer to the guess than this (rad, in yaw and pitch) is the guess's own
+constexpr int kScanTiltSteps = 3;
+/** A scanned turn closer to the guess than this (rad, in every angle) is the guess's own
  * start; two closer to each other than kScanSeparationRad are one. */
 constexpr double kScanMinTurnRad = 0.2;
 constexpr double kScanSeparationRad = 0.3;
@@ -144,11 +144,11 @@ public:
     const int headings = o_.yaw_index >= 0 ? o_.heading_starts : 1;
     const int positions = o_.position_starts;
     // Turns at the guess's position: the fixed yaw offsets, then the scanned turns.
-    std::vector<Eigen::Vector2d> turns_at_guess; // (pitch, yaw)
+    std::vector<Eigen::Vector3d> turns_at_guess; // (roll, pitch, yaw)
     if (o_.yaw_index >= 0)
       for (const double yaw : o_.yaw_starts)
-        turns_at_guess.emplace_back(0.0, yaw);
-    for (const Eigen::Vector2d& turn : scannedTurns(level))
+        turns_at_guess.emplace_back(0.0, 0.0, yaw);
+    for (const Eigen::Vector3d& turn : scannedTurns(level))
       turns_at_guess.push_back(turn);
     const int turns = static_cast<int>(turns_at_guess.size());
     const int starts = headings + positions + turns;
@@ -164,11 +164,13 @@ public:
       if (k > 0 && k < headings) // k * 360 / headings degrees, in (-180, 180]
         start[o_.yaw_index] = std::remainder(2.0 * M_PI * k / headings, 2.0 * M_PI);
       if (k >= headings + positions) {
-        const Eigen::Vector2d& turn =
+        const Eigen::Vector3d& turn =
             turns_at_guess[static_cast<std::size_t>(k - headings - positions)];
+        if (o_.roll_index >= 0)
+          start[o_.roll_index] = turn[0];
         if (o_.pitch_index >= 0)
-          start[o_.pitch_index] = turn[0];
-        start[o_.yaw_index] = turn[1];
+          start[o_.pitch_index] = turn[1];
+        start[o_.yaw_index] = turn[2];
       }
       else if (k >= headings) {
         const double angle = 2.0 * M_PI * (k - headings) / positions;
@@ -200,21 +202,26 @@ public:
    * distinct, into CoarseToFineResult::scanned_turns, which it returns (the evaluations
    * booked). The grid is scored in two halves, one per evaluator, or as one batch where the
    * costs prefer it. */
-  const std::vector<Eigen::Vector2d>&
+  const std::vector<Eigen::Vector3d>&
   scannedTurns(int level)
   {
-    std::vector<Eigen::Vector2d>& turns = result_.scanned_turns;
+    std::vector<Eigen::Vector3d>& turns = result_.scanned_turns;
     turns.clear();
     if (o_.scanned_starts <= 0 || o_.yaw_index < 0 || o_.pitch_index < 0)
       return turns;
+    const bool roll = o_.scan_roll && o_.roll_index >= 0;
+    const int roll_steps = roll ? kScanTiltSteps : 0;
     std::vector<Eigen::VectorXd> grid;
     for (int a = -kScanYawSteps; a <= kScanYawSteps; ++a)
-      for (int b = -kScanPitchSteps; b <= kScanPitchSteps; ++b) {
-        Eigen::VectorXd x = Eigen::VectorXd::Zero(o_.steps.size());
-        x[o_.yaw_index] = a * kScanStepRad;
-        x[o_.pitch_index] = b * kScanStepRad;
-        grid.push_back(x);
-      }
+      for (int b = -kScanTiltSteps; b <= kScanTiltSteps; ++b)
+        for (int c = -roll_steps; c <= roll_steps; ++c) {
+          Eigen::VectorXd x = Eigen::VectorXd::Zero(o_.steps.size());
+          x[o_.yaw_index] = a * kScanStepRad;
+          x[o_.pitch_index] = b * kScanStepRad;
+          if (roll)
+            x[o_.roll_index] = c * kScanStepRad;
+          grid.push_back(x);
+        }
     std::vector<double> values(grid.size());
     if (costs_.prefersBatches()) {
       costs_.costs(level, 0, grid, values);
@@ -239,9 +246,10 @@ public:
     for (const std::size_t i : order) {
       if (static_cast<int>(turns.size()) == o_.scanned_starts || !(values[i] < at_guess))
         break;
-      const Eigen::Vector2d turn(grid[i][o_.pitch_index], grid[i][o_.yaw_index]);
+      const Eigen::Vector3d turn(roll ? grid[i][o_.roll_index] : 0.0, grid[i][o_.pitch_index],
+                                 grid[i][o_.yaw_index]);
       bool distinct = turn.cwiseAbs().maxCoeff() > kScanMinTurnRad;
-      for (const Eigen::Vector2d& other : turns)
+      for (const Eigen::Vector3d& other : turns)
         distinct = distinct && (turn - other).cwiseAbs().maxCoeff() > kScanSeparationRad;
       if (distinct)
         turns.push_back(turn);

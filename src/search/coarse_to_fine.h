@@ -59,18 +59,19 @@ struct CoarseToFineOptions {
   Eigen::VectorXd tolerance; ///< finest-level convergence tolerance per search parameter
   /** Per search parameter: a translation (true) or an angle in radians (false). */
   std::vector<bool> translational;
-  /** Where x, y, pitch and yaw sit in the search vector; -1 when pinned. */
-  Eigen::Index x_index = -1, y_index = -1, pitch_index = -1, yaw_index = -1;
+  /** Where x, y, roll, pitch and yaw sit in the search vector; -1 when pinned. */
+  Eigen::Index x_index = -1, y_index = -1, roll_index = -1, pitch_index = -1, yaw_index = -1;
   int heading_starts = 1;   ///< headings spread over 360 degrees (only with a yaw index)
   int position_starts = 0;  ///< starts on the ellipse of half the x and y steps
   /** Further starts at the guess's position, at these yaw offsets (rad) from it (only with
    * a yaw index). */
   std::vector<double> yaw_starts;
   /** Further starts at the guess's position, turned by the best-scoring turns of a grid of
-   * yaw (every 10 degrees within 60) and pitch (within 30) that the coarsest level's cost
-   * scores first, at least 11 degrees from the guess and 17 from each other (only with yaw
-   * and pitch indices). */
+   * yaw (every 10 degrees within 60), pitch (within 30) and, with scan_roll and a roll
+   * index, roll (within 30) that the coarsest level's cost scores first, at least 11
+   * degrees from the guess and 17 from each other (only with yaw and pitch indices). */
   int scanned_starts = 0;
+  bool scan_roll = false;
   bool symmetric_start = true;
   int first_level = 0;      ///< finest level searched (levels below are skipped)
   int restarts = 0;         ///< restarts on the finest searched level
@@ -88,8 +89,8 @@ struct CoarseToFineResult {
   int iterations = 0;     ///< summed over every search
   int evaluations = 0;    ///< summed over every search
   int batches = 0;        ///< calls of LevelCosts::costs(), summed over every search
-  /** The turns scanned_starts started from, as (pitch, yaw) in rad. */
-  std::vector<Eigen::Vector2d> scanned_turns;
+  /** The turns scanned_starts started from, as (roll, pitch, yaw) in rad. */
+  std::vector<Eigen::Vector3d> scanned_turns;
   /** One stage per level ("search 4 m", ...) and "restarts", with its evaluations. */
   std::vector<StageTiming> stages;
 };
