@@ -64,8 +64,8 @@ miOptionTable(MiOptionSet set)
               "(default %g; 0 = off)",
               d.search.narrow_view_yaw_start * 180.0 / M_PI)},
       {"-narrow_view_scans", V::Number, "-narrow_view_scans N",
-       format("starts at the best-scoring turns of a yaw/pitch grid about the sensor,\n"
-              "for a narrow field of view (default %g; 0 = none)",
+       format("starts at the best-scoring turns of a yaw/pitch(/roll) grid about the\n"
+              "sensor, for a narrow field of view (default %g; 0 = none)",
               d.search.narrow_view_scanned_starts)},
       {"-second_search", V::Number, "-second_search N",
        format("headings of the wider second search a 360-degree pair gets when its\n"

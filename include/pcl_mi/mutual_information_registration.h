@@ -289,8 +289,9 @@ public:
   }
 
   /** \brief Where either cloud has a narrow field of view, this many more starts of the
-   * coarsest level at the turns about the sensor that score best on a grid of yaw and pitch
-   * (default 2; 0 = none; pcl_mi::SearchParameters::narrow_view_scanned_starts). */
+   * coarsest level at the turns about the sensor that score best on a grid of yaw, pitch
+   * and, unless both clouds show the same up direction, roll (default 2; 0 = none;
+   * pcl_mi::SearchParameters::narrow_view_scanned_starts). */
   void
   setNarrowViewScannedStarts(int starts)
   {

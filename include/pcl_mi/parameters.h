@@ -159,12 +159,14 @@ struct SearchParameters {
   double narrow_view_yaw_start = 0.5;
   /** For clouds with a narrow field of view (as for narrow_view_position_starts): this
    * many more starts of the coarsest level at the guess's position, turned by the turns
-   * that score best among a grid of yaw (every 10 degrees within 60) and pitch (within 30)
-   * about the sensor, at least 11 degrees from the guess and 17 from each other (0 = none).
-   * A sensor turned on the spot changes what it sees with every turn; the grid costs 91
-   * evaluations and finds the turn that the simplex's steps miss (docs/benchmarks.md,
-   * "Narrow views: scanned turns"). AlignmentResult::scanned_starts says how many an
-   * alignment used. */
+   * that score best among a grid of yaw (every 10 degrees within 60), pitch (within 30) and
+   * roll (within 30) about the sensor, at least 11 degrees from the guess and 17 from each
+   * other (0 = none). A sensor turned on the spot changes what it sees with every turn; the
+   * grid finds the turn that the simplex's steps miss (docs/benchmarks.md, "Narrow views:
+   * scanned turns"). Roll is left out (91 turns instead of 637) where both clouds show an
+   * up direction and the guess keeps them within 5 degrees, as on a car (docs/benchmarks.md,
+   * "Scanned turns in roll"). AlignmentResult::scanned_starts says how many an alignment
+   * used. */
   int narrow_view_scanned_starts = 2;
   /** For clouds without a narrow field of view, when the verification does not trust the
    * result: a second, wider search from this many headings spread over 360 degrees and from
