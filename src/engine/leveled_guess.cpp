@@ -23,6 +23,15 @@ apartBeyondLeveling(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
   return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) > kLevelingDegrees * M_PI / 180.0;
 }
 
+bool
+guessKeepsUp(const std::optional<Eigen::Vector3d>& source_up,
+             const std::optional<Eigen::Vector3d>& target_up,
+             const Eigen::Matrix4d& guess)
+{
+  return source_up && target_up &&
+         !apartBeyondLeveling(guess.topLeftCorner<3, 3>() * *source_up, *target_up);
+}
+
 Eigen::Matrix3d
 levelAxes(const Eigen::Vector3d& up)
 {
@@ -46,9 +55,8 @@ levelGuess(const std::optional<Eigen::Vector3d>& source_up,
   if (!source_up || !target_up)
     return std::nullopt;
   const Eigen::Vector3d& up = *target_up;
-  const Eigen::Vector3d moved = guess.topLeftCorner<3, 3>() * *source_up;
   Leveling leveling;
-  if (!apartBeyondLeveling(moved, up)) {
+  if (guessKeepsUp(source_up, target_up, guess)) {
     // Agreeing ups need no turn, but a sensor mounted tilted still moves along the ground
     // and turns about up, not along and about its own axes.
     if (!apartBeyondLeveling(up, Eigen::Vector3d::UnitZ()))
@@ -58,6 +66,7 @@ levelGuess(const std::optional<Eigen::Vector3d>& source_up,
     return leveling;
   }
   Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
+  const Eigen::Vector3d moved = guess.topLeftCorner<3, 3>() * *source_up;
   turn.topLeftCorner<3, 3>() = Eigen::Quaterniond::FromTwoVectors(moved, up).toRotationMatrix();
   turn.topRightCorner<3, 1>() = pivot - turn.topLeftCorner<3, 3>() * pivot;
   leveling.guess = turn * guess;

@@ -28,6 +28,14 @@ levelingApplies(const Parameters& parameters);
 bool
 apartBeyondLeveling(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
 
+/** \brief True where both up directions are known and \a guess, turning \a source_up,
+ * keeps it within kLevelingDegrees of \a target_up: the sensor did not tilt between the
+ * scans, as far as the clouds show. */
+bool
+guessKeepsUp(const std::optional<Eigen::Vector3d>& source_up,
+             const std::optional<Eigen::Vector3d>& target_up,
+             const Eigen::Matrix4d& guess);
+
 /** \brief Where to search a tilted pair from, in the target frame. */
 struct Leveling {
   /** The guess turned about the pivot so that the source's up direction meets the

@@ -29,9 +29,9 @@ constexpr int kRefinementMinimumPoints = 4;
  * a cube is mostly a strip (two points always are), which takes its surface from its
  * neighbours where those hold one (TargetDistributions). A scan of a few thousand points
  * leaves most of its small cubes with fewer than four, and without them the samples there
- * find no surface (docs/benchmarks.md, "Sparse cubes"). The coarser stages of a narrow view keep kRefinementMinimumPoints: in
- * their larger cubes two or three points are stray returns, whose wide pull moved results
- * onto the wrong stretch of a repeated facade. */
+ * find no surface (docs/benchmarks.md, "Sparse cubes"). The coarser stages of a narrow
+ * view keep kRefinementMinimumPoints: in their larger cubes two or three points are stray
+ * returns, whose wide pull moved results onto the wrong stretch of a repeated facade. */
 constexpr int kSparseRefinementMinimumPoints = 2;
 /** Share of the target's points in cubes of fewer than kRefinementMinimumPoints from which
  * the target counts as sparse: 3-13 % in the shared KITTI, Seosan and PCL room scans, where

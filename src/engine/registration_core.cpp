@@ -123,20 +123,6 @@ private:
   std::vector<JointHistogram> batch_histograms_[2];
 };
 
-/** True where both clouds show an up direction and the guess leaves them more than
- * kLevelingDegrees apart: a sensor that tilts between its scans, which the scanned turns
- * then also look for in roll. A car's narrow view keeps its up, and there turns in roll
- * that score well on the coarse grid only displace the right ones (docs/benchmarks.md,
- * "Scanned turns in roll"). */
-bool
-upDirectionsDisagree(const core::PreparedProblem& problem, const Eigen::Matrix4d& guess)
-{
-  const std::optional<Eigen::Vector3d>& source_up = problem.sourceUp();
-  const std::optional<Eigen::Vector3d>& target_up = problem.targetUp();
-  return !source_up || !target_up ||
-         core::apartBeyondLeveling(guess.topLeftCorner<3, 3>() * *source_up, *target_up);
-}
-
 /** Takes the trust from \a result, which passed the reliability test, where a pose a few
  * voxels along its least constrained direction scores a higher MI on the finest grid
  * (core::higherAlongLeastConstrained()). */
@@ -360,7 +346,10 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     options.yaw_starts = {p.search.narrow_view_yaw_start, -p.search.narrow_view_yaw_start};
   if (narrow_view) {
     options.scanned_starts = p.search.narrow_view_scanned_starts;
-    options.scan_roll = upDirectionsDisagree(problem, guess);
+    // The scanned turns also look for roll, unless the clouds show that the sensor kept its
+    // up: on a car's narrow view, turns in roll that score well on the coarse grid only
+    // displace the right ones (docs/benchmarks.md, "Scanned turns in roll").
+    options.scan_roll = !core::guessKeepsUp(problem.sourceUp(), problem.targetUp(), guess);
   }
   // Normalised MI on the coarsest level only where finer levels follow it.
   const int coarsest = problem.levels() - 1;
