@@ -6,6 +6,7 @@
 
 #include <pcl_mi/io.h>
 #include <pcl_mi/kitti.h>
+#include <pcl_mi/types.h>
 
 #include <pcl/common/io.h>
 #include <pcl/point_cloud.h>
@@ -35,6 +36,18 @@ loadScan(const std::string& sequence, int frame)
   auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   pcl::copyPointCloud(xyzi, *cloud);
   return cloud;
+}
+
+/** The x, y, z of every point of \a cloud, as the engine takes them. */
+template <typename PointT>
+pcl_mi::PointList
+pointList(const pcl::PointCloud<PointT>& cloud)
+{
+  pcl_mi::PointList points;
+  points.reserve(cloud.size());
+  for (const auto& p : cloud)
+    points.emplace_back(p.x, p.y, p.z);
+  return points;
 }
 
 /** Reference transform mapping scan \a source_frame into scan \a target_frame, from the

@@ -17,15 +17,6 @@ namespace {
 using pcl_mi::PointList;
 using pcl_mi::core::deriveResolution;
 
-PointList
-pointsOf(const pcl::PointCloud<pcl::PointXYZ>& cloud)
-{
-  PointList points;
-  for (const auto& p : cloud)
-    points.emplace_back(p.x, p.y, p.z);
-  return points;
-}
-
 /** The walls, floor and ceiling of an empty box room, sampled at random. */
 PointList
 room(double length, double width, double height, int points_per_face = 4000)
@@ -54,7 +45,7 @@ TEST(DerivedDefaults, StreetScansKeepOneMetre)
   for (const auto& [sequence, frame] : {std::make_pair("00", 0), std::make_pair("00", 9),
                                         std::make_pair("02", 0), std::make_pair("02", 6)}) {
     SCOPED_TRACE(testing::Message() << sequence << ":" << frame);
-    EXPECT_EQ(deriveResolution(pointsOf(*test_data::loadScan(sequence, frame))), 1.0);
+    EXPECT_EQ(deriveResolution(test_data::pointList(*test_data::loadScan(sequence, frame))), 1.0);
   }
 }
 

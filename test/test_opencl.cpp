@@ -25,15 +25,6 @@ using pcl_mi::Backend;
 
 namespace {
 
-pcl_mi::PointList
-points(const pcl::PointCloud<pcl::PointXYZ>& cloud)
-{
-  pcl_mi::PointList list;
-  for (const auto& p : cloud)
-    list.emplace_back(p.x, p.y, p.z);
-  return list;
-}
-
 bool
 requireOpenCl()
 {
@@ -71,8 +62,8 @@ TEST_P(OpenClParity, JointHistogramsAndMiAreIdenticalAtManyPoses)
   if (!requireOpenCl())
     GTEST_SKIP() << "no OpenCL device";
   const auto [feature, subdivision] = GetParam();
-  const auto source = points(*test_data::loadScan("02", 6));
-  const auto target = points(*test_data::loadScan("02", 0));
+  const auto source = test_data::pointList(*test_data::loadScan("02", 6));
+  const auto target = test_data::pointList(*test_data::loadScan("02", 0));
   const Eigen::Matrix4d reference = test_data::referenceTransform("02", 0, 6);
   auto cpu = makeCore(Backend::Cpu, feature, 1, subdivision, source, target);
   auto gpu = makeCore(Backend::OpenCL, feature, 1, subdivision, source, target);
@@ -114,8 +105,8 @@ TEST(OpenClBatches, EachPoseOfABatchGetsTheCpuHistogram)
     GTEST_SKIP() << "no OpenCL device";
 #ifdef PCL_MI_WITH_OPENCL
   using namespace pcl_mi::core;
-  const auto source = points(*test_data::loadScan("02", 6));
-  const auto target = points(*test_data::loadScan("02", 0));
+  const auto source = test_data::pointList(*test_data::loadScan("02", 6));
+  const auto target = test_data::pointList(*test_data::loadScan("02", 0));
   std::string error;
   auto device = pcl_mi::backend::openClDevice(-1, -1, error);
   ASSERT_TRUE(device) << error;
@@ -207,8 +198,8 @@ TEST(OpenClAuto, TakesOpenClOnlyWhereItIsFaster)
 {
   if (!requireOpenCl())
     GTEST_SKIP() << "no OpenCL device";
-  const auto source = points(*test_data::loadScan("02", 6));
-  const auto target = points(*test_data::loadScan("02", 0));
+  const auto source = test_data::pointList(*test_data::loadScan("02", 6));
+  const auto target = test_data::pointList(*test_data::loadScan("02", 0));
   const Eigen::Matrix4d pose = test_data::referenceTransform("02", 0, 6);
   // Light evaluations (the defaults' samples): the CPU backend, and no fallback warning.
   auto light = makeCore(Backend::Auto, pcl_mi::Feature::VarianceZ, 3, 2, source, target);

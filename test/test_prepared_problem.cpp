@@ -15,6 +15,9 @@
 
 namespace {
 
+using pcl_mi::core::PreparedProblem;
+using pcl_mi::core::TargetDistributions;
+
 pcl_mi::PointList
 bundledLivoxScan(const std::string& name)
 {
@@ -23,33 +26,24 @@ bundledLivoxScan(const std::string& name)
                                          "/foreign_lidar/livox_avia_quickshack/scans/" + name,
                                      cloud),
             "");
-  pcl_mi::PointList out;
-  for (const auto& p : cloud.points)
-    out.emplace_back(p.x, p.y, p.z);
-  return out;
+  return test_data::pointList(cloud);
 }
 
-pcl_mi::PointList
-points(const pcl::PointCloud<pcl::PointXYZ>& cloud)
+/** \a problem given \a target and \a source with the defaults, and prepared. */
+void
+prepare(PreparedProblem& problem, pcl_mi::PointList target, pcl_mi::PointList source)
 {
-  pcl_mi::PointList out;
-  for (const auto& p : cloud.points)
-    out.emplace_back(p.x, p.y, p.z);
-  return out;
-}
-
-/** The fewest points of any cube of the finest refinement stage of \a target. */
-std::uint32_t
-fewestCubePoints(pcl_mi::PointList target, pcl_mi::PointList source)
-{
-  pcl_mi::core::PreparedProblem problem;
   problem.setParameters(pcl_mi::Parameters());
   problem.setTarget(std::move(target));
   problem.setSource(std::move(source));
   std::string error;
   EXPECT_TRUE(problem.prepare(error)) << error;
-  const pcl_mi::core::TargetDistributions& cubes = problem.distributions(0);
-  EXPECT_GT(cubes.size(), 100u);
+}
+
+/** The fewest points of any of \a cubes. */
+std::uint32_t
+fewestPoints(const TargetDistributions& cubes)
+{
   std::uint32_t fewest = ~std::uint32_t{0};
   for (std::size_t i = 0; i < cubes.size(); ++i)
     fewest = std::min(fewest, cubes[static_cast<int>(i)].points);
@@ -60,20 +54,18 @@ fewestCubePoints(pcl_mi::PointList target, pcl_mi::PointList source)
 
 TEST(PreparedProblem, ASparseTargetRefinesOnCubesOfTwoPointsADenseOneOnFour)
 {
-  EXPECT_EQ(fewestCubePoints(bundledLivoxScan("000087.bin"), bundledLivoxScan("000090.bin")), 2u);
-  EXPECT_EQ(fewestCubePoints(points(*test_data::loadScan("00", 0)),
-                             points(*test_data::loadScan("00", 9))),
-            4u);
+  PreparedProblem livox;
+  prepare(livox, bundledLivoxScan("000087.bin"), bundledLivoxScan("000090.bin"));
+  ASSERT_GT(livox.distributions(0).size(), 100u);
+  EXPECT_EQ(fewestPoints(livox.distributions(0)), 2u);
   // The coarser stages of the narrow view keep four in the sparse target too.
-  pcl_mi::core::PreparedProblem problem;
-  problem.setParameters(pcl_mi::Parameters());
-  problem.setTarget(bundledLivoxScan("000087.bin"));
-  problem.setSource(bundledLivoxScan("000090.bin"));
-  std::string error;
-  ASSERT_TRUE(problem.prepare(error)) << error;
-  ASSERT_TRUE(problem.narrowView());
-  const pcl_mi::core::TargetDistributions& coarser = problem.distributions(1);
-  ASSERT_GT(coarser.size(), 10u);
-  for (std::size_t i = 0; i < coarser.size(); ++i)
-    EXPECT_GE(coarser[static_cast<int>(i)].points, 4u);
+  ASSERT_TRUE(livox.narrowView());
+  ASSERT_GT(livox.distributions(1).size(), 10u);
+  EXPECT_EQ(fewestPoints(livox.distributions(1)), 4u);
+
+  PreparedProblem kitti;
+  prepare(kitti, test_data::pointList(*test_data::loadScan("00", 0)),
+          test_data::pointList(*test_data::loadScan("00", 9)));
+  ASSERT_GT(kitti.distributions(0).size(), 100u);
+  EXPECT_EQ(fewestPoints(kitti.distributions(0)), 4u);
 }

@@ -13,15 +13,6 @@
 
 namespace {
 
-pcl_mi::PointList
-points(const pcl::PointCloud<pcl::PointXYZ>& cloud)
-{
-  pcl_mi::PointList out;
-  for (const auto& p : cloud.points)
-    out.emplace_back(p.x, p.y, p.z);
-  return out;
-}
-
 /** A covariance whose least certain translation is along x. */
 Eigen::Matrix<double, 6, 6>
 uncertainAlongX()
@@ -37,8 +28,8 @@ TEST(SecondOptimum, NoneAtTheReferenceAndAHigherProbeNearerToItFromAPoseMovedOff
 {
   pcl_mi::core::PreparedProblem problem;
   problem.setParameters(pcl_mi::Parameters());
-  problem.setTarget(points(*test_data::loadScan("00", 0)));
-  problem.setSource(points(*test_data::loadScan("00", 9)));
+  problem.setTarget(test_data::pointList(*test_data::loadScan("00", 0)));
+  problem.setSource(test_data::pointList(*test_data::loadScan("00", 9)));
   std::string error;
   ASSERT_TRUE(problem.prepare(error)) << error;
   const Eigen::Matrix4d reference = test_data::referenceTransform("00", 0, 9);
