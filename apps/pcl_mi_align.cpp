@@ -324,6 +324,11 @@ run(int argc, char** argv)
                     ? "one kept (it agrees better with the target on the finest grid)"
                     : "none kept");
   }
+  if (reg.getLastResult().shifted_optimum_kept) {
+    print_info("Shifted optimum: ");
+    print_value("kept (a higher MI on the finest grid a few voxels across, at the same "
+                "rotation)\n");
+  }
   if (reg.getNumberOfRefinementIterations() > 0) {
     print_info("Refinement iterations: ");
     print_value("%d\n", reg.getNumberOfRefinementIterations());

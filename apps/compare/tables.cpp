@@ -91,7 +91,9 @@ printStages(const std::vector<Row>& rows, const std::vector<std::string>& method
         const int k = t.name == "prepare"        ? 0
                       : t.name == "refinement"   ? 2
                       : t.name == "verification" || t.name == "second optimum" ? 3
-                                                 : 1; // "search ...", "restarts"
+                                                 : 1; // "search ...", "restarts",
+                                                      // "runners-up", "second search",
+                                                      // "shifted optima"
         stage[k] += t.total_ms;
       }
       stage[4] = stage[5] - stage[0] - stage[1] - stage[2] - stage[3];

@@ -172,6 +172,10 @@ struct AlignmentResult {
   /** The wider second search ran (SearchParameters::second_search_headings); where it found
    * the result, runner_up_kept is true too. */
   bool second_search = false;
+  /** For a narrow field of view: the result moved to a higher optimum of the MI on the
+   * finest grid a few voxels across, at the same rotation, as on a facade whose windows or
+   * pillars repeat. */
+  bool shifted_optimum_kept = false;
   /** The search ran along the target's up direction, read from its horizontal surfaces
    * (SearchParameters::leveling): the two clouds' ups disagreed under the guess by more than
    * 5 degrees, as between scans of a sensor carried tilted, and the search started from the

@@ -11,6 +11,7 @@
 #include "engine/refine_optimum.h"
 #include "engine/search_space.h"
 #include "engine/second_optimum.h"
+#include "engine/shifted_optimum.h"
 #include "features/mutual_information.h"
 #include "search/coarse_to_fine.h"
 #include "util/stage_clock.h"
@@ -145,18 +146,18 @@ refuseASecondOptimum(core::PreparedProblem& problem, AlignmentResult& result)
   result.converged = false;
 }
 
-/** Refines the search vector \a x's pose and gives it the verdict, into \a result (whose
- * search_converged is set). Returns the normalised MI on the finest grid at the final pose,
- * by which candidates of different overlaps compare (keepTheFinestGridsChoice()). */
+/** Refines \a pose and gives it the verdict, into \a result (whose search_converged is
+ * set). Returns the normalised MI on the finest grid at the final pose, by which candidates
+ * of different overlaps compare (agreesBetter()). */
 double
 finishCandidate(core::PreparedProblem& problem,
                 const core::SearchSpace& space,
-                const Eigen::VectorXd& x,
+                const Eigen::Matrix4d& pose,
                 JointHistogram& scratch,
                 AlignmentResult& result)
 {
   const Parameters& p = problem.parameters();
-  result.transformation = space.pose(x);
+  result.transformation = pose;
   result.refinement_iterations = 0;
   result.refinement_stages = 0;
   if (p.refinement.method == Refinement::PointToDistribution) {
@@ -190,6 +191,19 @@ finishCandidate(core::PreparedProblem& problem,
   return finest_normalized_mi;
 }
 
+/** Makes \a candidate, refined and verified by finishCandidate(), the result. */
+void
+takeCandidate(AlignmentResult&& candidate, AlignmentResult& result)
+{
+  result.transformation = candidate.transformation;
+  result.converged = candidate.converged;
+  result.search_converged = candidate.search_converged;
+  result.refinement_iterations = candidate.refinement_iterations;
+  result.refinement_stages = candidate.refinement_stages;
+  result.mutual_information = candidate.mutual_information;
+  result.verification = std::move(candidate.verification);
+}
+
 /** Raises the roll and pitch steps of \a options to at least \a step, keeping their signs;
  * a pinned one stays pinned. */
 void
@@ -200,6 +214,21 @@ widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions
     if (i >= 0 && std::abs(options.steps[i]) < step)
       options.steps[i] = std::copysign(step, options.steps[i]);
   }
+}
+
+/** True where \a candidate (finishCandidate() gave it \a candidate_normalized_mi) agrees
+ * better with the target than \a result: it lies on surfaces the clouds share where the
+ * result does not, or, alike in that, it has the higher normalised MI on the finest grid. */
+bool
+agreesBetter(const AlignmentResult& candidate,
+             double candidate_normalized_mi,
+             const AlignmentResult& result,
+             double normalized_mi)
+{
+  const bool supported = core::sharesSurface(candidate.verification);
+  return supported != core::sharesSurface(result.verification)
+             ? supported
+             : candidate_normalized_mi > normalized_mi;
 }
 
 /** Refines and verifies each of \a optima (search vectors with their searches' convergence)
@@ -220,24 +249,23 @@ keepTheFinestGridsChoice(core::PreparedProblem& problem,
   for (const core::NelderMeadResult& optimum : optima) {
     AlignmentResult other; // its stages are the caller's stage's
     other.search_converged = optimum.converged;
-    const double other_normalized_mi = finishCandidate(problem, space, optimum.x, scratch, other);
+    const double other_normalized_mi =
+        finishCandidate(problem, space, space.pose(optimum.x), scratch, other);
     ++result.runners_up_checked;
-    const bool supported = core::sharesSurface(other.verification);
-    const bool better = supported != core::sharesSurface(result.verification)
-                            ? supported
-                            : other_normalized_mi > finest_normalized_mi;
-    if (better) {
+    if (agreesBetter(other, other_normalized_mi, result, finest_normalized_mi)) {
       finest_normalized_mi = other_normalized_mi;
-      result.transformation = other.transformation;
-      result.converged = other.converged;
-      result.search_converged = other.search_converged;
-      result.refinement_iterations = other.refinement_iterations;
-      result.refinement_stages = other.refinement_stages;
-      result.mutual_information = other.mutual_information;
-      result.verification = std::move(other.verification);
+      takeCandidate(std::move(other), result);
       result.runner_up_kept = true;
     }
   }
+}
+
+/** The up direction of the target's input frame: the one its surfaces show, else z. */
+Eigen::Vector3d
+targetUpInInput(const core::PreparedProblem& problem)
+{
+  return problem.targetUp() ? Eigen::Vector3d(problem.targetAxes() * *problem.targetUp())
+                            : Eigen::Vector3d::UnitZ();
 }
 
 } // namespace
@@ -366,7 +394,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
   result.search_converged = found.best.converged;
-  double finest_normalized_mi = finishCandidate(problem, space, found.best.x, impl_->scratch, result);
+  double finest_normalized_mi =
+      finishCandidate(problem, space, space.pose(found.best.x), impl_->scratch, result);
 
   // A second opinion: where the verification does not trust the search's best optimum, the
   // runners-up are refined and verified too, and the one that agrees best with the target
@@ -401,6 +430,30 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     optima.insert(optima.end(), again.alternatives.begin(), again.alternatives.end());
     keepTheFinestGridsChoice(problem, space, optima, impl_->scratch, result, finest_normalized_mi);
     clock.end(result.stages, "second search", again.evaluations);
+  }
+
+  // A narrow view of a repeating facade: the coarser grids the search ranks on cannot tell
+  // optima a bay apart, the finest grid can (docs/method.md).
+  if (narrow_view) {
+    core::StageClock clock;
+    int evaluations = 0;
+    const std::optional<core::ShiftedOptimum> shifted = core::higherShiftedOptimum(
+        problem, result.transformation, targetUpInInput(problem), p.num_threads, evaluations);
+    if (shifted) {
+      AlignmentResult other;
+      other.search_converged = shifted->converged;
+      const double other_normalized_mi =
+          finishCandidate(problem, space, shifted->pose, impl_->scratch, other);
+      // Judged as a runner-up is, and on shared surface only: between two places, a shift
+      // to the edge of the overlap can raise the MI of the few voxels left there.
+      if (core::sharesSurface(other.verification) &&
+          agreesBetter(other, other_normalized_mi, result, finest_normalized_mi)) {
+        takeCandidate(std::move(other), result);
+        result.shifted_optimum_kept = true;
+      }
+    }
+    result.evaluations += evaluations;
+    clock.end(result.stages, "shifted optima", evaluations);
   }
   return result;
 }

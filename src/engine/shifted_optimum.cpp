@@ -1,0 +1,89 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "engine/shifted_optimum.h"
+
+#include "search/nelder_mead.h"
+#include "util/parallel.h"
+
+#include <array>
+#include <cmath>
+#include <vector>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+/** Spacing of the starts, in voxels of the finest grid: a bay of a facade is a few. */
+constexpr double kShiftedStartVoxels = 2.0;
+
+/** How much higher than the pose's own optimum another must score to replace it: the
+ * finest grid's MI of a sparse scan varies by a few percent between neighbouring poses. */
+constexpr double kShiftedMargin = 0.05;
+
+/** Iteration cap of each search: from a start a bay away it has a voxel or two to go. A
+ * search that needs more has not found a clear optimum, and its result says so
+ * (search_converged false). */
+constexpr int kShiftedIterations = 15;
+
+/** Tolerance of each search, in voxels: the refinement takes the result on from there. */
+constexpr double kShiftedToleranceVoxels = 0.1;
+
+} // namespace
+
+std::optional<ShiftedOptimum>
+higherShiftedOptimum(PreparedProblem& problem,
+                     const Eigen::Matrix4d& pose,
+                     const Eigen::Vector3d& up,
+                     int num_threads,
+                     int& evaluations)
+{
+  const double voxel = problem.levelResolution(0);
+  // Two unit vectors square to up, and to each other.
+  const Eigen::Vector3d u = up.unitOrthogonal();
+  const Eigen::Vector3d v = up.normalized().cross(u);
+  const Eigen::Vector3d at = pose.topRightCorner<3, 1>();
+  std::vector<Eigen::Vector3d> starts{at};
+  for (int ring = 1; ring <= kShiftedStarts / 8; ++ring)
+    for (int k = 0; k < 8; ++k) {
+      const double angle = k * M_PI / 4.0;
+      const Eigen::Vector3d direction = std::cos(angle) * u + std::sin(angle) * v;
+      starts.push_back(at + ring * kShiftedStartVoxels * voxel * direction);
+    }
+
+  NelderMeadOptions options;
+  options.max_iterations = kShiftedIterations;
+  options.tolerance = Eigen::Vector3d::Constant(kShiftedToleranceVoxels * voxel);
+  const Eigen::VectorXd steps = Eigen::Vector3d::Constant(voxel);
+  std::vector<NelderMeadResult> found(starts.size());
+  // Each evaluator takes every other start; the searches are independent, so the results do
+  // not depend on the threads.
+  parallelFor(2, num_threads, [&](int slot) {
+    JointHistogram histogram;
+    const auto cost = [&](const Eigen::VectorXd& t) {
+      Eigen::Matrix4d shifted = pose;
+      shifted.topRightCorner<3, 1>() = t;
+      return -problem.mutualInformation(shifted, histogram, 0, slot);
+    };
+    for (std::size_t i = static_cast<std::size_t>(slot); i < starts.size(); i += 2)
+      found[i] = minimizeNelderMead(cost, starts[i], steps, options);
+  });
+
+  std::size_t best = 0;
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    evaluations += found[i].evaluations;
+    if (i > 0 && (found[i].x - found[0].x).norm() > voxel &&
+        (best == 0 || found[i].value < found[best].value))
+      best = i;
+  }
+  // Values are minus the MI.
+  if (best == 0 || !(-found[best].value > -found[0].value * (1.0 + kShiftedMargin)))
+    return std::nullopt;
+  ShiftedOptimum shifted{pose, found[best].converged};
+  shifted.pose.topRightCorner<3, 1>() = found[best].x;
+  return shifted;
+}
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,44 @@
+/*
+ * pcl_mi: the look for a higher optimum a few voxels across, at the result's rotation.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include "engine/prepared_problem.h"
+
+#include <Eigen/Core>
+
+#include <optional>
+
+namespace pcl_mi {
+namespace core {
+
+/** \brief An optimum of the translation at a kept rotation. */
+struct ShiftedOptimum {
+  Eigen::Matrix4d pose;
+  bool converged = false; ///< its search met the tolerance
+};
+
+/** \brief Translation-only Nelder-Mead searches on the finest grid, the rotation of \a pose
+ * kept: one from \a pose, and one from each of kShiftedStarts starts 1, 2 and 3 times
+ * kShiftedStartVoxels voxels away in eight directions square to \a up (input frame).
+ * Returns the best start's optimum where its MI beats that of the search from \a pose by
+ * more than kShiftedMargin and it lies more than a voxel away; none otherwise.
+ *
+ * A narrow view of a facade with a row of windows or pillars has optima a bay apart whose
+ * rotations agree: the coarser grids the search ranks on cannot tell them apart, the
+ * finest grid can, but its optima are too narrow for a simplex to walk from one to the next.
+ * \a evaluations counts the MI evaluations. */
+std::optional<ShiftedOptimum>
+higherShiftedOptimum(PreparedProblem& problem,
+                     const Eigen::Matrix4d& pose,
+                     const Eigen::Vector3d& up,
+                     int num_threads,
+                     int& evaluations);
+
+/** \brief Starts of higherShiftedOptimum() besides the pose: eight directions, three
+ * distances. */
+constexpr int kShiftedStarts = 24;
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,70 @@
+/*
+ * The look for a higher optimum a few voxels across, on a real Livox pair carried past a
+ * building: none at the reference pose, and from the reference slid one to two metres sideways,
+ * the reference's own optimum.
+ */
+#include "engine/prepared_problem.h"
+#include "engine/shifted_optimum.h"
+#include "test_data.h"
+
+#include <pcl_mi/io.h>
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+namespace {
+
+const std::string kSet = std::string(PCL_MI_DATA_DIR) + "/foreign_lidar/livox_avia_hku1/";
+
+pcl_mi::PointList
+bundledScan(const std::string& name)
+{
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  EXPECT_EQ(pcl_mi::io::loadKittiBin(kSet + name, cloud), "");
+  return test_data::pointList(cloud);
+}
+
+} // namespace
+
+TEST(ShiftedOptimum, NoneAtTheReferenceAndTheReferenceFromASlideAcross)
+{
+  // The set's first row: source, target, then the reference source-to-target 3x4.
+  std::ifstream list(kSet + "list.txt");
+  std::string source_name, target_name;
+  ASSERT_TRUE(list >> source_name >> target_name);
+  Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
+  for (int i = 0; i < 12; ++i)
+    ASSERT_TRUE(list >> reference(i / 4, i % 4));
+
+  pcl_mi::core::PreparedProblem problem;
+  problem.setParameters(pcl_mi::Parameters());
+  problem.setTarget(bundledScan(target_name));
+  problem.setSource(bundledScan(source_name));
+  std::string error;
+  ASSERT_TRUE(problem.prepare(error)) << error;
+  ASSERT_TRUE(problem.narrowView());
+  const double voxel = problem.levelResolution(0);
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+
+  int evaluations = 0;
+  EXPECT_FALSE(pcl_mi::core::higherShiftedOptimum(problem, reference, up, 2, evaluations));
+  EXPECT_GT(evaluations, pcl_mi::core::kShiftedStarts);
+
+  // Slides off the starts' lattice, so that a search has to find the optimum.
+  for (const Eigen::Vector3d& across :
+       {Eigen::Vector3d(1.3, 1.1, 0.0), Eigen::Vector3d(-1.7, 0.6, 0.0)}) {
+    Eigen::Matrix4d slid = reference;
+    slid.topRightCorner<3, 1>() += across;
+    const auto found = pcl_mi::core::higherShiftedOptimum(problem, slid, up, 2, evaluations);
+    ASSERT_TRUE(found) << across.transpose();
+    // The rotation stays; the translation goes back to within a voxel of the reference's.
+    const Eigen::Matrix3d rotation_change =
+        found->pose.topLeftCorner<3, 3>() - reference.topLeftCorner<3, 3>();
+    EXPECT_EQ(rotation_change.norm(), 0.0);
+    const Eigen::Vector3d translation_error =
+        (found->pose - reference).topRightCorner<3, 1>();
+    EXPECT_LT(translation_error.norm(), voxel) << across.transpose();
+  }
+}
