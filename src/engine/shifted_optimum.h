@@ -22,8 +22,8 @@ struct ShiftedOptimum {
 /** \brief Translation-only Nelder-Mead searches on the finest grid, the rotation of \a pose
  * kept: one from \a pose, and one from each of kShiftedStarts starts 1, 2 and 3 times
  * kShiftedStartVoxels voxels away in eight directions square to \a up (input frame).
- * Returns the best start's optimum where its MI beats that of the search from \a pose by
- * more than kShiftedMargin and it lies more than a voxel away; none otherwise.
+ * Returns the best start's optimum where it lies more than a voxel from that of the search
+ * from \a pose and has a higher MI; none otherwise.
  *
  * A narrow view of a facade with a row of windows or pillars has optima a bay apart whose
  * rotations agree: the coarser grids the search ranks on cannot tell them apart, the
