@@ -1,7 +1,7 @@
 /*
  * The look for a higher optimum a few voxels across, on a real Livox pair carried past a
- * building: none at the reference pose, and from the reference slid one to two metres sideways,
- * the reference's own optimum.
+ * building: none at the reference pose, and from the reference slid one to two metres
+ * sideways, the reference's own optimum.
  */
 #include "engine/prepared_problem.h"
 #include "engine/shifted_optimum.h"

@@ -6,7 +6,6 @@
 #include "search/nelder_mead.h"
 #include "util/parallel.h"
 
-#include <array>
 #include <cmath>
 #include <vector>
 

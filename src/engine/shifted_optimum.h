@@ -20,8 +20,8 @@ struct ShiftedOptimum {
 };
 
 /** \brief Translation-only Nelder-Mead searches on the finest grid, the rotation of \a pose
- * kept: one from \a pose, and one from each of kShiftedStarts starts 1, 2 and 3 times
- * kShiftedStartVoxels voxels away in eight directions square to \a up (input frame).
+ * kept: one from \a pose, and one from each of kShiftedStarts starts 2, 4 and 6 voxels away
+ * in eight directions square to \a up (input frame).
  * Returns the best start's optimum where it lies more than a voxel from that of the search
  * from \a pose and has a higher MI; none otherwise.
  *
