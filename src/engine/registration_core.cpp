@@ -148,7 +148,7 @@ refuseASecondOptimum(core::PreparedProblem& problem, AlignmentResult& result)
 
 /** Refines \a pose and gives it the verdict, into \a result (whose search_converged is
  * set). Returns the normalised MI on the finest grid at the final pose, by which candidates
- * of different overlaps compare (agreesBetter()). */
+ * of different overlaps compare (takeIfAgreesBetter()). */
 double
 finishCandidate(core::PreparedProblem& problem,
                 const core::SearchSpace& space,
@@ -191,19 +191,6 @@ finishCandidate(core::PreparedProblem& problem,
   return finest_normalized_mi;
 }
 
-/** Makes \a candidate, refined and verified by finishCandidate(), the result. */
-void
-takeCandidate(AlignmentResult&& candidate, AlignmentResult& result)
-{
-  result.transformation = candidate.transformation;
-  result.converged = candidate.converged;
-  result.search_converged = candidate.search_converged;
-  result.refinement_iterations = candidate.refinement_iterations;
-  result.refinement_stages = candidate.refinement_stages;
-  result.mutual_information = candidate.mutual_information;
-  result.verification = std::move(candidate.verification);
-}
-
 /** Raises the roll and pitch steps of \a options to at least \a step, keeping their signs;
  * a pinned one stays pinned. */
 void
@@ -216,19 +203,42 @@ widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions
   }
 }
 
-/** True where \a candidate (finishCandidate() gave it \a candidate_normalized_mi) agrees
- * better with the target than \a result: it lies on surfaces the clouds share where the
- * result does not, or, alike in that, it has the higher normalised MI on the finest grid. */
+/** Refines and verifies \a pose, whose search's convergence is \a search_converged, and
+ * makes it the result where it agrees better with the target: it lies on surfaces the
+ * clouds share where the result does not, or, alike in that, it has the higher normalised MI
+ * on the finest grid than the result's own, \a finest_normalized_mi (then updated). With
+ * \a needs_shared_surface, a candidate that shares too little surface is never taken.
+ * Returns true where it was taken. */
 bool
-agreesBetter(const AlignmentResult& candidate,
-             double candidate_normalized_mi,
-             const AlignmentResult& result,
-             double normalized_mi)
+takeIfAgreesBetter(core::PreparedProblem& problem,
+                   const core::SearchSpace& space,
+                   const Eigen::Matrix4d& pose,
+                   bool search_converged,
+                   bool needs_shared_surface,
+                   JointHistogram& scratch,
+                   AlignmentResult& result,
+                   double& finest_normalized_mi)
 {
-  const bool supported = core::sharesSurface(candidate.verification);
-  return supported != core::sharesSurface(result.verification)
-             ? supported
-             : candidate_normalized_mi > normalized_mi;
+  AlignmentResult other; // its stages are the caller's stage's
+  other.search_converged = search_converged;
+  const double other_normalized_mi = finishCandidate(problem, space, pose, scratch, other);
+  const bool supported = core::sharesSurface(other.verification);
+  if (needs_shared_surface && !supported)
+    return false;
+  const bool better = supported != core::sharesSurface(result.verification)
+                          ? supported
+                          : other_normalized_mi > finest_normalized_mi;
+  if (!better)
+    return false;
+  finest_normalized_mi = other_normalized_mi;
+  result.transformation = other.transformation;
+  result.converged = other.converged;
+  result.search_converged = other.search_converged;
+  result.refinement_iterations = other.refinement_iterations;
+  result.refinement_stages = other.refinement_stages;
+  result.mutual_information = other.mutual_information;
+  result.verification = std::move(other.verification);
+  return true;
 }
 
 /** Refines and verifies each of \a optima (search vectors with their searches' convergence)
@@ -247,16 +257,10 @@ keepTheFinestGridsChoice(core::PreparedProblem& problem,
                          double& finest_normalized_mi)
 {
   for (const core::NelderMeadResult& optimum : optima) {
-    AlignmentResult other; // its stages are the caller's stage's
-    other.search_converged = optimum.converged;
-    const double other_normalized_mi =
-        finishCandidate(problem, space, space.pose(optimum.x), scratch, other);
     ++result.runners_up_checked;
-    if (agreesBetter(other, other_normalized_mi, result, finest_normalized_mi)) {
-      finest_normalized_mi = other_normalized_mi;
-      takeCandidate(std::move(other), result);
+    if (takeIfAgreesBetter(problem, space, space.pose(optimum.x), optimum.converged, false,
+                           scratch, result, finest_normalized_mi))
       result.runner_up_kept = true;
-    }
   }
 }
 
@@ -439,19 +443,11 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     int evaluations = 0;
     const std::optional<core::ShiftedOptimum> shifted = core::higherShiftedOptimum(
         problem, result.transformation, targetUpInInput(problem), p.num_threads, evaluations);
-    if (shifted) {
-      AlignmentResult other;
-      other.search_converged = shifted->converged;
-      const double other_normalized_mi =
-          finishCandidate(problem, space, shifted->pose, impl_->scratch, other);
-      // Judged as a runner-up is, and on shared surface only: between two places, a shift
-      // to the edge of the overlap can raise the MI of the few voxels left there.
-      if (core::sharesSurface(other.verification) &&
-          agreesBetter(other, other_normalized_mi, result, finest_normalized_mi)) {
-        takeCandidate(std::move(other), result);
-        result.shifted_optimum_kept = true;
-      }
-    }
+    // Judged as a runner-up is, and on shared surface only: between two places, a shift to
+    // the edge of the overlap can raise the MI of the few voxels left there.
+    if (shifted && takeIfAgreesBetter(problem, space, shifted->pose, shifted->converged, true,
+                                      impl_->scratch, result, finest_normalized_mi))
+      result.shifted_optimum_kept = true;
     result.evaluations += evaluations;
     clock.end(result.stages, "shifted optima", evaluations);
   }
