@@ -19,8 +19,18 @@ results below the threshold (each result weighs the same, as in the reliability
 diagram); every verdict stays as it is. It prints a and b and the reliability diagram
 in sample and with each set left out.
 
-Usage: fit_confidence.py [-success T,R] [-weights W1,...,W5 | -below_threshold B0,W1,...,W5]
-                         A.csv B.csv ...
+With -calibration B0,W1,...,W5 the model is kept too, and the logit z below logit(THRESHOLD)
+goes through a monotone piecewise-linear map with knots at CALIBRATION_KNOTS (the map of
+src/verify/verification.cpp): its ends stay where they are, and the values at the inner
+knots are a logistic regression of success on the map's hat functions, fitted over the
+pooled results (each result weighs the same, as in the reliability diagram), penalised
+for bends and for straying from the identity. Every verdict stays as it is. A set named "unrelated"
+(scripts/unrelated_pairs.py) takes part in the fit and is left out of the acceptance
+diagram; its mean confidence is printed.
+
+Usage: fit_confidence.py [-success T,R]
+                         [-weights W1,...,W5 | -below_threshold B0,W1,...,W5 |
+                          -calibration B0,W1,...,W5] A.csv B.csv ...
 """
 import csv
 import os
@@ -32,6 +42,13 @@ TERMS = ["normalized_mi", "weakest_contrast", "logit(inlier_fraction)", "log1p(i
          "peak_contrast"]
 RIDGE = 0.1
 THRESHOLD = 0.95
+# The calibration's knots in the logit; the last is logit(THRESHOLD), above which it keeps z.
+CALIBRATION_KNOTS = np.array([-5.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0,
+                              np.log(THRESHOLD / (1.0 - THRESHOLD))])
+# The fit's penalties: on the change of slope from knot to knot, and on the distance from
+# the identity.
+CALIBRATION_SMOOTHNESS = 0.3
+CALIBRATION_RIDGE = 1.0
 
 
 def passes_gate(row):
@@ -131,18 +148,101 @@ def recalibrate(sets, model):
     return 0
 
 
+def hat_basis(z):
+    """Per z (inside the knots' span), the weights of the knot values in the interpolation."""
+    k = CALIBRATION_KNOTS
+    basis = np.zeros((len(z), len(k)))
+    i = np.clip(np.searchsorted(k, z, side="right") - 1, 0, len(k) - 2)
+    t = (z - k[i]) / (k[i + 1] - k[i])
+    basis[np.arange(len(z)), i] = 1.0 - t
+    basis[np.arange(len(z)), i + 1] = t
+    return basis
+
+
+def calibrate(values, z):
+    """The map: identity outside the knots' span, linear between the knots' values."""
+    k = CALIBRATION_KNOTS
+    return np.where((z < k[0]) | (z >= k[-1]), z, np.interp(z, k, values))
+
+
+def fit_calibration(z, y):
+    """The inner knots' values by ridge-regularised logistic regression (IRLS); the ends are
+    the knots themselves."""
+    k = CALIBRATION_KNOTS
+    inside = (z >= k[0]) & (z < k[-1])
+    basis, y = hat_basis(z[inside]), y[inside]
+    offset = basis[:, 0] * k[0] + basis[:, -1] * k[-1]
+    a = basis[:, 1:-1]
+    v = k[1:-1].copy()
+    # The penalty: the slopes' changes from knot to knot (a smooth map), as a quadratic form
+    # in the full value vector, of which the inner values are free.
+    n = len(k)
+    slopes = np.zeros((n - 1, n))
+    for i in range(n - 1):
+        slopes[i, i], slopes[i, i + 1] = -1.0 / (k[i + 1] - k[i]), 1.0 / (k[i + 1] - k[i])
+    bends = slopes[1:] - slopes[:-1]
+    penalty = CALIBRATION_SMOOTHNESS * bends.T @ bends + CALIBRATION_RIDGE * np.eye(n)
+    inner = penalty[1:-1, 1:-1]
+    for _ in range(100):
+        p = 1.0 / (1.0 + np.exp(-(a @ v + offset)))
+        full = np.r_[k[0], v, k[-1]]
+        gradient = (penalty @ (full - k))[1:-1]
+        step = np.linalg.solve((a * (p * (1 - p))[:, None]).T @ a + inner,
+                               a.T @ (p - y) + gradient)
+        v -= step
+        if np.abs(step).max() < 1e-10:
+            break
+    values = np.r_[k[0], v, k[-1]]
+    if np.any(np.diff(values) <= 0.0):
+        print("warning: the fitted map is not monotone: %s" % np.round(values, 3))
+    return values
+
+
+def calibration(sets, model):
+    """The -calibration mode."""
+    z = {n: model[0] + sets[n][0] @ model[1:] for n in sets}
+    y = {n: sets[n][1].astype(float) for n in sets}
+    values = fit_calibration(np.concatenate(list(z.values())), np.concatenate(list(y.values())))
+    print("knots  " + " ".join("%6.2f" % v for v in CALIBRATION_KNOTS))
+    print("values " + " ".join("%6.2f" % v for v in values))
+    accepted = [n for n in sets if n != "unrelated"]
+    p = lambda names, f: np.concatenate([1.0 / (1.0 + np.exp(-f(n, z[n]))) for n in names])
+    y_accepted = np.concatenate([y[n] for n in accepted])
+    print_reliability("Before", p(accepted, lambda n, v: v), y_accepted)
+    print_reliability("In sample", p(accepted, lambda n, v: calibrate(values, v)), y_accepted)
+    held_out = {}
+    for name in sets:
+        others = [n for n in sets if n != name]
+        held_out[name] = fit_calibration(np.concatenate([z[n] for n in others]),
+                                         np.concatenate([y[n] for n in others]))
+    print_reliability("Each set left out",
+                      p(accepted, lambda n, v: calibrate(held_out[n], v)), y_accepted)
+    if "unrelated" in sets:
+        for title, f in (("before", lambda n, v: v), ("in sample", lambda n, v: calibrate(values, v)),
+                         ("left out", lambda n, v: calibrate(held_out[n], v))):
+            q = p(["unrelated"], f)
+            print("unrelated, %s: mean confidence %.3f, median %.3f, most %.3f" % (
+                title, q.mean(), np.median(q), q.max()))
+    return 0
+
+
 def main(argv):
     args, files, bound = argv[1:], [], (0.5, 2.0)
     weights = model = None
-    while len(args) >= 2 and args[0] in ("-success", "-weights", "-below_threshold"):
+    mode = None
+    while len(args) >= 2 and args[0] in ("-success", "-weights", "-below_threshold",
+                                         "-calibration"):
         values = tuple(float(v) for v in args[1].split(","))
         if args[0] == "-success":
             bound = values
         elif args[0] == "-weights":
             weights = np.array(values)
         else:
-            model = np.array(values)
+            model, mode = np.array(values), args[0]
         args = args[2:]
+    if mode == "-calibration":
+        return calibration({os.path.splitext(os.path.basename(p))[0]: load(p, bound)
+                            for p in args}, model)
     if model is not None:
         return recalibrate({os.path.splitext(os.path.basename(p))[0]: load(p, bound)
                             for p in args}, model)

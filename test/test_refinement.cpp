@@ -309,6 +309,28 @@ TEST(Verification, TargetAxesTurnTheReportedCovarianceAndDirections)
   EXPECT_EQ(turned.confidence, level.confidence);
 }
 
+// The calibration of the confidence only moves logits below the verdict's threshold, never
+// across it, and keeps their order: every verdict stays as the model gives it.
+TEST(Verification, CalibrationKeepsTheOrderAndTheThreshold)
+{
+  using pcl_mi::core::calibratedLogit;
+  const double threshold =
+      std::log(pcl_mi::core::kReliableConfidence / (1.0 - pcl_mi::core::kReliableConfidence));
+  double previous = calibratedLogit(-20.0);
+  EXPECT_EQ(previous, -20.0);
+  for (int i = 1; i <= 4000; ++i) {
+    const double z = -20.0 + 0.01 * i;
+    const double mapped = calibratedLogit(z);
+    EXPECT_GT(mapped, previous) << "at z = " << z;
+    EXPECT_EQ(mapped < threshold, z < threshold) << "at z = " << z;
+    if (z >= threshold)
+      EXPECT_EQ(mapped, z);
+    previous = mapped;
+  }
+  // Continuous where it meets the identity.
+  EXPECT_NEAR(calibratedLogit(std::nextafter(threshold, 0.0)), threshold, 1e-9);
+}
+
 TEST(TargetDistributions, FindBlockGivesFindsAnswers)
 {
   // The lookups of a real scan's cubes, block by block, against one at a time: points on

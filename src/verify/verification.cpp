@@ -42,6 +42,16 @@ constexpr double kWeightPeakContrast = 1.42;
 /** Inlier fractions are clamped to [kFractionClamp, 1 - kFractionClamp] for the logit. */
 constexpr double kFractionClamp = 1e-3;
 
+/** The calibration of the model's logit below the verdict's threshold: a monotone
+ * piecewise-linear map through these knots' values, fitted by scripts/fit_confidence.py
+ * -calibration on every result of the real sets (docs/benchmarks.md, "A calibrated
+ * confidence"). Logistic in five terms, the model ranks results well but spreads the
+ * uncertain ones too low: their success rises steeply and then levels off. The map runs
+ * from the first knot to the threshold's logit, which it keeps, and leaves the logit outside
+ * that span as it is: every verdict stays as the model gives it. */
+constexpr double kCalibrationKnots[] = {-5.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0};
+constexpr double kCalibratedLogits[] = {-5.0, -3.14, -2.23, -0.36, 1.09, 1.46, 2.68};
+
 /** Share of the inliers that a move of one voxel along one of the two least observable
  * directions must lose at least: a floor or a corridor loses only its edges along its free
  * directions, whereas their noisy normals leave those directions some small information. */
@@ -212,10 +222,26 @@ confidenceOf(const Verification& v)
                    kWeightInlierLogit * std::log(f / (1.0 - f)) +
                    kWeightLogInliers * std::log1p(static_cast<double>(v.inliers)) +
                    kWeightPeakContrast * v.peak_contrast;
-  return 1.0 / (1.0 + std::exp(-z));
+  return 1.0 / (1.0 + std::exp(-calibratedLogit(z)));
 }
 
 } // namespace
+
+double
+calibratedLogit(double z)
+{
+  const double threshold = std::log(kReliableConfidence / (1.0 - kReliableConfidence));
+  if (!(z > kCalibrationKnots[0] && z < threshold))
+    return z;
+  constexpr int n = static_cast<int>(std::size(kCalibrationKnots));
+  int i = 0;
+  while (i + 1 < n && z >= kCalibrationKnots[i + 1])
+    ++i;
+  const double upper = i + 1 < n ? kCalibrationKnots[i + 1] : threshold;
+  const double upper_value = i + 1 < n ? kCalibratedLogits[i + 1] : threshold;
+  const double t = (z - kCalibrationKnots[i]) / (upper - kCalibrationKnots[i]);
+  return kCalibratedLogits[i] + t * (upper_value - kCalibratedLogits[i]);
+}
 
 Verification
 verifyPose(const TargetDistributions& target,

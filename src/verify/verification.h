@@ -32,6 +32,12 @@ sharesSurface(const Verification& verification)
   return verification.inliers >= kMinimumInliers;
 }
 
+/** \brief The confidence model's logit \a z through the calibration's monotone map: the
+ * identity outside the span from its first knot to logit(kReliableConfidence), so that a
+ * confidence reaches kReliableConfidence exactly where the model's does. */
+double
+calibratedLogit(double z);
+
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
