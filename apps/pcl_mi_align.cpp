@@ -329,6 +329,10 @@ run(int argc, char** argv)
     print_value("kept (a higher MI on the finest grid a few voxels across, at the same "
                 "rotation)\n");
   }
+  if (!std::isnan(reg.getVerification().lead)) {
+    print_info("Lead over the optima a few voxels across: ");
+    print_value("%+.0f %% of the MI (narrow field of view)\n", 100.0 * reg.getVerification().lead);
+  }
   if (reg.getNumberOfRefinementIterations() > 0) {
     print_info("Refinement iterations: ");
     print_value("%d\n", reg.getNumberOfRefinementIterations());

@@ -19,7 +19,12 @@ results below the threshold (each result weighs the same, as in the reliability
 diagram); every verdict stays as it is. It prints a and b and the reliability diagram
 in sample and with each set left out.
 
-With -calibration B0,W1,...,W5 the model is kept too, and the logit z below logit(THRESHOLD)
+With -lead B0,W1,...,W5 the model is kept and the lead term of a narrow view is fitted:
+WL * clamp(lead, LEAD_CLAMP) + BL added to the logit of the results with a lead (the CSVs'
+last column, NaN for 360-degree views), by logistic regression over those results; it
+prints WL and BL and the verdict in sample and with each set left out.
+
+With -calibration B0,W1,...,W5[,WL,BL] the model is kept too (with its lead term), and the logit z below logit(THRESHOLD)
 goes through a monotone piecewise-linear map with knots at CALIBRATION_KNOTS (the map of
 src/verify/verification.cpp): its ends stay where they are, and the values at the inner
 knots are a logistic regression of success on the map's hat functions, fitted over the
@@ -30,7 +35,8 @@ diagram; its mean confidence is printed.
 
 Usage: fit_confidence.py [-success T,R]
                          [-weights W1,...,W5 | -below_threshold B0,W1,...,W5 |
-                          -calibration B0,W1,...,W5] A.csv B.csv ...
+                          -lead B0,W1,...,W5 | -calibration B0,W1,...,W5[,WL,BL]]
+                         A.csv B.csv ...
 """
 import csv
 import os
@@ -48,6 +54,8 @@ CALIBRATION_KNOTS = np.array([-5.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0,
 # The fit's penalties: on the change of slope from knot to knot, and on the distance from
 # the identity.
 CALIBRATION_SMOOTHNESS = 0.3
+# The lead's clamp (src/verify/verification.cpp).
+LEAD_CLAMP = (-0.3, 0.5)
 CALIBRATION_RIDGE = 1.0
 
 
@@ -68,6 +76,72 @@ def load(path, bound):
     y = (g("translation_error_m") < bound[0]) & (g("rotation_error_deg") < bound[1])
     gate = np.array([passes_gate(r) for r in rows], dtype=bool)
     return x, y, gate
+
+
+def load_lead(path):
+    """The lead column of the MI rows of \a path; NaN where a row or the file has none."""
+    with open(path) as f:
+        rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
+    return np.array([float(r.get("lead") or "nan") for r in rows])
+
+
+def logit_of(model, x, lead):
+    """The model's logit; with a lead term (model of 8 values), added where a lead exists."""
+    z = model[0] + x @ model[1:6]
+    if len(model) == 8:
+        has = ~np.isnan(lead)
+        z = z + np.where(has, model[6] * np.clip(np.nan_to_num(lead), *LEAD_CLAMP) + model[7], 0.0)
+    return z
+
+
+def fit_lead(z, lead, y):
+    """WL, BL of the logistic regression of y on z + WL * clamp(lead) + BL."""
+    x1 = np.column_stack([np.clip(lead, *LEAD_CLAMP), np.ones(len(lead))])
+    b = np.zeros(2)
+    for _ in range(100):
+        p = 1.0 / (1.0 + np.exp(-(z + x1 @ b)))
+        step = np.linalg.solve((x1 * (p * (1 - p))[:, None]).T @ x1 + 1e-9 * np.eye(2),
+                               x1.T @ (p - y))
+        b -= step
+        if np.abs(step).max() < 1e-10:
+            break
+    return b
+
+
+def lead_term(sets, leads, model):
+    """The -lead mode."""
+    z = {n: model[0] + sets[n][0] @ model[1:6] for n in sets}
+    narrow = [n for n in sets if (~np.isnan(leads[n])).any()]
+
+    def fitted(names):
+        has = [~np.isnan(leads[n]) for n in names]
+        return fit_lead(np.concatenate([z[n][h] for n, h in zip(names, has)]),
+                        np.concatenate([leads[n][h] for n, h in zip(names, has)]),
+                        np.concatenate([sets[n][1][h] for n, h in zip(names, has)]).astype(float))
+
+    def verdict(title, terms):
+        totals = np.zeros(4)
+        for n in sets:
+            p = 1.0 / (1.0 + np.exp(-logit_of(np.r_[model, terms[n]], sets[n][0], leads[n])))
+            y, said = sets[n][1], sets[n][2] & (p >= THRESHOLD)
+            totals += [said.sum(), (said & ~y).sum(), (said & y).sum(), y.sum()]
+            if n in narrow:
+                print("  %-24s %5d converged, %3d wrong (%.2f %%), recall %5.1f %%" % (
+                    n, said.sum(), (said & ~y).sum(), 100.0 * (said & ~y).sum() / max(said.sum(), 1),
+                    100.0 * (said & y).sum() / max(y.sum(), 1)))
+        print("%s, all sets: %d converged, %d wrong (%.2f %%), recall %.1f %%" % (
+            title, totals[0], totals[1], 100.0 * totals[1] / max(totals[0], 1),
+            100.0 * totals[2] / max(totals[3], 1)))
+
+    b = fitted(narrow)
+    print("lead weight %.2f, offset %.2f" % (b[0], b[1]))
+    verdict("Without the lead term", {n: np.array([0.0, 0.0]) for n in sets})
+    verdict("In sample", {n: b for n in sets})
+    held_out = {n: fitted([m for m in narrow if m != n]) if n in narrow else b for n in sets}
+    for n in narrow:
+        print("  fitted without %s: %.2f, %.2f" % (n, held_out[n][0], held_out[n][1]))
+    verdict("Each set left out", held_out)
+    return 0
 
 
 def fit_intercept(x, y, w, weights):
@@ -198,9 +272,9 @@ def fit_calibration(z, y):
     return values
 
 
-def calibration(sets, model):
+def calibration(sets, leads, model):
     """The -calibration mode."""
-    z = {n: model[0] + sets[n][0] @ model[1:] for n in sets}
+    z = {n: logit_of(model, sets[n][0], leads[n]) for n in sets}
     y = {n: sets[n][1].astype(float) for n in sets}
     values = fit_calibration(np.concatenate(list(z.values())), np.concatenate(list(y.values())))
     print("knots  " + " ".join("%6.2f" % v for v in CALIBRATION_KNOTS))
@@ -231,7 +305,7 @@ def main(argv):
     weights = model = None
     mode = None
     while len(args) >= 2 and args[0] in ("-success", "-weights", "-below_threshold",
-                                         "-calibration"):
+                                         "-lead", "-calibration"):
         values = tuple(float(v) for v in args[1].split(","))
         if args[0] == "-success":
             bound = values
@@ -240,9 +314,11 @@ def main(argv):
         else:
             model, mode = np.array(values), args[0]
         args = args[2:]
-    if mode == "-calibration":
-        return calibration({os.path.splitext(os.path.basename(p))[0]: load(p, bound)
-                            for p in args}, model)
+    if mode in ("-lead", "-calibration"):
+        name = lambda p: os.path.splitext(os.path.basename(p))[0]
+        sets = {name(p): load(p, bound) for p in args}
+        leads = {name(p): load_lead(p) for p in args}
+        return (lead_term if mode == "-lead" else calibration)(sets, leads, model)
     if model is not None:
         return recalibrate({os.path.splitext(os.path.basename(p))[0]: load(p, bound)
                             for p in args}, model)

@@ -776,6 +776,31 @@ TEST(Registration, AnUntrustedOptimumGivesWayToTheRunnerUpTheFinestGridPrefers)
   EXPECT_FALSE(reg.getLastResult().runner_up_kept);
 }
 
+// A narrow view's verdict also weighs how far its optimum leads the others a few voxels
+// across: the Livox walk's second bundled pair leads by a sixth and converges; a 360-degree
+// scan skips the searches across and has no lead.
+TEST(Registration, ANarrowViewsVerdictWeighsTheLeadOfItsOptimum)
+{
+  Cloud::Ptr source, target;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 1));
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud aligned;
+  reg.align(aligned);
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_GT(reg.getVerification().lead, 0.1);
+  EXPECT_LE(reg.getVerification().lead, 1.0);
+  EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+
+  reg.setInputSource(test_data::loadScan("00", 9));
+  reg.setInputTarget(test_data::loadScan("00", 0));
+  reg.align(aligned);
+  EXPECT_TRUE(reg.hasConverged());
+  EXPECT_TRUE(std::isnan(reg.getVerification().lead));
+}
+
 // The same Livox walk, 6.0 m and 32 deg between the scans, in both directions: searched on
 // MI alone, the coarsest grid (2 m voxels over 4-5 thousand points) scores a wrong pose with
 // more overlap above the right one, and both directions end 0.6-1.9 m off. Normalised MI,

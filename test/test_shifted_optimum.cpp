@@ -1,7 +1,8 @@
 /*
  * The look for a higher optimum a few voxels across, on a real Livox pair carried past a
- * building: none at the reference pose, and from the reference slid one to two metres
- * sideways, the reference's own optimum.
+ * building: none at the reference pose, whose optimum leads every other nearby, and from the
+ * reference slid one to two metres sideways, the reference's own optimum, which leads the
+ * slid pose's.
  */
 #include "engine/prepared_problem.h"
 #include "engine/shifted_optimum.h"
@@ -49,7 +50,10 @@ TEST(ShiftedOptimum, NoneAtTheReferenceAndTheReferenceFromASlideAcross)
   const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
 
   int evaluations = 0;
-  EXPECT_FALSE(pcl_mi::core::higherShiftedOptimum(problem, reference, up, 2, evaluations));
+  const pcl_mi::core::ShiftedOptima at =
+      pcl_mi::core::shiftedOptima(problem, reference, up, 2, evaluations);
+  EXPECT_FALSE(at.higher);
+  EXPECT_GT(at.lead, 0.0);
   EXPECT_GT(evaluations, pcl_mi::core::kShiftedStarts);
 
   // Slides off the starts' lattice, so that a search has to find the optimum.
@@ -57,8 +61,12 @@ TEST(ShiftedOptimum, NoneAtTheReferenceAndTheReferenceFromASlideAcross)
        {Eigen::Vector3d(1.3, 1.1, 0.0), Eigen::Vector3d(-1.7, 0.6, 0.0)}) {
     Eigen::Matrix4d slid = reference;
     slid.topRightCorner<3, 1>() += across;
-    const auto found = pcl_mi::core::higherShiftedOptimum(problem, slid, up, 2, evaluations);
+    const pcl_mi::core::ShiftedOptima across_optima =
+        pcl_mi::core::shiftedOptima(problem, slid, up, 2, evaluations);
+    const auto& found = across_optima.higher;
     ASSERT_TRUE(found) << across.transpose();
+    EXPECT_LT(across_optima.lead, 0.0) << across.transpose();
+    EXPECT_GT(found->lead, 0.0) << across.transpose();
     // The rotation stays; the translation goes back to within a voxel of the reference's.
     const Eigen::Matrix3d rotation_change =
         found->pose.topLeftCorner<3, 3>() - reference.topLeftCorner<3, 3>();

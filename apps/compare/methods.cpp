@@ -189,13 +189,14 @@ runMethod(const std::string& chain,
     o.confidence = v.confidence;
     for (int i = 0; i < 6; ++i)
       o.sigma[i] = std::sqrt(v.covariance(i, i)) * (i < 3 ? 1.0 : 180.0 / M_PI);
-    const double evidence[7] = {mi->getLastResult().search_converged ? 1.0 : 0.0,
+    const double evidence[8] = {mi->getLastResult().search_converged ? 1.0 : 0.0,
                                 static_cast<double>(v.inliers),
                                 v.inlier_fraction,
                                 v.peak_contrast,
                                 v.weakest_contrast,
                                 v.normalized_mi,
-                                std::min(v.free_direction_contrast[0], v.free_direction_contrast[1])};
+                                std::min(v.free_direction_contrast[0], v.free_direction_contrast[1]),
+                                v.lead};
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
   }
   return o;

@@ -21,7 +21,8 @@ namespace {
 constexpr std::size_t kLegacyFields = 14;
 constexpr std::size_t kPoseFields = kLegacyFields + 3 + 2 * 12;
 constexpr std::size_t kVerdictFields = kPoseFields + 7;
-constexpr std::size_t kFields = kVerdictFields + 7;
+constexpr std::size_t kEvidenceFields = kVerdictFields + 7; // before the lead
+constexpr std::size_t kFields = kEvidenceFields + 1;
 } // namespace
 
 /** The first 14 columns are the original format, which readRows() still accepts; the columns
@@ -42,7 +43,7 @@ csvHeader(bool with_poses)
         h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
   h += ",confidence,sd_x_m,sd_y_m,sd_z_m,sd_roll_deg,sd_pitch_deg,sd_yaw_deg";
   h += ",search_converged,inliers,inlier_fraction,peak_contrast,weakest_contrast,normalized_mi,"
-       "free_direction_contrast";
+       "free_direction_contrast,lead";
   return h;
 }
 
@@ -102,7 +103,8 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
     ++number;
     if (line.empty() || line == legacy_header || line == header ||
         line == header.substr(0, header.find(",confidence")) ||
-        line == header.substr(0, header.find(",search_converged")))
+        line == header.substr(0, header.find(",search_converged")) ||
+        line == header.substr(0, header.find(",lead")))
       continue;
     std::vector<std::string> f;
     std::stringstream ss(line);
@@ -111,7 +113,7 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
       f.push_back(item);
     try {
       if (f.size() != kLegacyFields && f.size() != kPoseFields && f.size() != kVerdictFields &&
-          f.size() != kFields)
+          f.size() != kEvidenceFields && f.size() != kFields)
         throw std::invalid_argument("field count");
       Row r;
       r.sequence = f[0];
@@ -143,8 +145,8 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
           for (double& sd : r.sigma)
             sd = std::stod(f[k++]);
         }
-        if (f.size() == kFields)
-          for (double& e : r.evidence)
+        for (double& e : r.evidence)
+          if (k < f.size())
             e = std::stod(f[k++]);
       }
       rows.push_back(r);

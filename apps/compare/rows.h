@@ -41,8 +41,9 @@ struct Row {
   double sigma[6] = {NAN, NAN, NAN, NAN, NAN, NAN};
   /** The evidence behind MI's confidence (pcl_mi::Verification), for refitting its model:
    * search converged (0/1), inliers, inlier fraction, peak contrast, weakest contrast,
-   * normalised MI and the smaller free-direction contrast. NaN as above. */
-  double evidence[7] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+   * normalised MI, the smaller free-direction contrast and the lead of a narrow view (NaN
+   * for a 360-degree one). NaN as above; the lead also in rows of files without it. */
+  double evidence[8] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
 };

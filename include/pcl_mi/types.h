@@ -12,6 +12,7 @@
 #include <cstddef>
 
 #include <cstdint>
+#include <limits>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -122,6 +123,11 @@ struct Verification {
   /** Share of the inliers lost by moving the result one voxel either way along each of the
    * two least observable directions; below 0.05 the direction counts as free (degenerate). */
   double free_direction_contrast[2] = {0.0, 0.0};
+  /** Narrow fields of view only, NaN otherwise: how far the MI on the finest grid of the
+   * result's optimum in translation leads the highest other optimum found within six voxels
+   * across, as a share of its own; negative where another scores higher, 1 where the
+   * searches found none (docs/method.md, "Shifted optima"). */
+  double lead = std::numeric_limits<double>::quiet_NaN();
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> covariance =

@@ -146,6 +146,33 @@ refuseASecondOptimum(core::PreparedProblem& problem, AlignmentResult& result)
   result.converged = false;
 }
 
+/** Judges \a result again with \a lead, its optimum's lead over the others nearby
+ * (Verification::lead). A result whose evidence passed without it has had the
+ * second-optimum test, whose outcome stands while the evidence still passes; one that
+ * passes only now takes that test. */
+void
+judgeWithLead(core::PreparedProblem& problem, double lead, AlignmentResult& result)
+{
+  Verification& v = result.verification;
+  Verification without = v;
+  core::judge(without);
+  const std::string previous = v.reason;
+  v.lead = lead;
+  core::judge(v);
+  if (!v.reason.empty()) {
+    result.converged = false;
+    return;
+  }
+  if (without.reason.empty()) {
+    v.reason = previous;
+    result.converged = result.search_converged && previous.empty();
+    return;
+  }
+  result.converged = result.search_converged;
+  if (result.converged)
+    refuseASecondOptimum(problem, result);
+}
+
 /** Refines \a pose and gives it the verdict, into \a result (whose search_converged is
  * set). Returns the normalised MI on the finest grid at the final pose, by which candidates
  * of different overlaps compare (takeIfAgreesBetter()). */
@@ -441,13 +468,16 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   if (narrow_view) {
     core::StageClock clock;
     int evaluations = 0;
-    const std::optional<core::ShiftedOptimum> shifted = core::higherShiftedOptimum(
+    const core::ShiftedOptima shifted = core::shiftedOptima(
         problem, result.transformation, targetUpInInput(problem), p.num_threads, evaluations);
     // Judged as a runner-up is, and on shared surface only: between two places, a shift to
     // the edge of the overlap can raise the MI of the few voxels left there.
-    if (shifted && takeIfAgreesBetter(problem, space, shifted->pose, shifted->converged, true,
-                                      impl_->scratch, result, finest_normalized_mi))
+    const std::optional<core::ShiftedOptimum>& higher = shifted.higher;
+    if (higher && takeIfAgreesBetter(problem, space, higher->pose, higher->converged, true,
+                                     impl_->scratch, result, finest_normalized_mi))
       result.shifted_optimum_kept = true;
+    // How far the result's optimum leads the others nearby is evidence for the verdict.
+    judgeWithLead(problem, result.shifted_optimum_kept ? higher->lead : shifted.lead, result);
     result.evaluations += evaluations;
     clock.end(result.stages, "shifted optima", evaluations);
   }

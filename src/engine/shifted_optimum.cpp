@@ -6,6 +6,7 @@
 #include "search/nelder_mead.h"
 #include "util/parallel.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -25,14 +26,29 @@ constexpr int kShiftedIterations = 15;
 /** Tolerance of each search, in voxels: the refinement takes the result on from there. */
 constexpr double kShiftedToleranceVoxels = 0.1;
 
+/** The lead of \a found[j] over the optima more than \a voxel from it (values are minus the
+ * MI). */
+double
+leadOf(const std::vector<NelderMeadResult>& found, std::size_t j, double voxel)
+{
+  const double mi = -found[j].value;
+  if (!(mi > 0.0))
+    return -1.0;
+  double other = -1.0; // none yet
+  for (std::size_t i = 0; i < found.size(); ++i)
+    if ((found[i].x - found[j].x).norm() > voxel)
+      other = std::max(other, -found[i].value);
+  return other < 0.0 ? 1.0 : (mi - other) / mi;
+}
+
 } // namespace
 
-std::optional<ShiftedOptimum>
-higherShiftedOptimum(PreparedProblem& problem,
-                     const Eigen::Matrix4d& pose,
-                     const Eigen::Vector3d& up,
-                     int num_threads,
-                     int& evaluations)
+ShiftedOptima
+shiftedOptima(PreparedProblem& problem,
+              const Eigen::Matrix4d& pose,
+              const Eigen::Vector3d& up,
+              int num_threads,
+              int& evaluations)
 {
   const double voxel = problem.levelResolution(0);
   // Two unit vectors square to up, and to each other.
@@ -75,11 +91,14 @@ higherShiftedOptimum(PreparedProblem& problem,
   // Values are minus the MI. The caller judges the optimum again after its refinement, by
   // the normalised MI and the shared surface, as a runner-up: a margin here only lost
   // right results (docs/benchmarks.md).
+  ShiftedOptima optima;
+  optima.lead = leadOf(found, 0, voxel);
   if (best == 0 || !(found[best].value < found[0].value))
-    return std::nullopt;
-  ShiftedOptimum shifted{pose, found[best].converged};
+    return optima;
+  ShiftedOptimum shifted{pose, found[best].converged, leadOf(found, best, voxel)};
   shifted.pose.topRightCorner<3, 1>() = found[best].x;
-  return shifted;
+  optima.higher = shifted;
+  return optima;
 }
 
 } // namespace core

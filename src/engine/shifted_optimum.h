@@ -17,26 +17,39 @@ namespace core {
 struct ShiftedOptimum {
   Eigen::Matrix4d pose;
   bool converged = false; ///< its search met the tolerance
+  /** How far its MI leads the highest of the other optima found more than a voxel from it,
+   * as a share of its own MI: negative where one of them scores higher, 1 where none was
+   * found. */
+  double lead = 0.0;
+};
+
+/** \brief What the searches across found. */
+struct ShiftedOptima {
+  /** The lead (ShiftedOptimum::lead) of the optimum of the search from the pose. */
+  double lead = 0.0;
+  /** The best start's optimum, where it lies more than a voxel from that of the search from
+   * the pose and has a higher MI. */
+  std::optional<ShiftedOptimum> higher;
 };
 
 /** \brief Translation-only Nelder-Mead searches on the finest grid, the rotation of \a pose
  * kept: one from \a pose, and one from each of kShiftedStarts starts 2, 4 and 6 voxels away
  * in eight directions square to \a up (input frame).
- * Returns the best start's optimum where it lies more than a voxel from that of the search
- * from \a pose and has a higher MI; none otherwise.
  *
  * A narrow view of a facade with a row of windows or pillars has optima a bay apart whose
  * rotations agree: the coarser grids the search ranks on cannot tell them apart, the
  * finest grid can, but its optima are too narrow for a simplex to walk from one to the next.
+ * Where none of them comes close, the result is the one place nearby where the clouds
+ * agree: the lead is evidence for the verdict (verify/verification.h).
  * \a evaluations counts the MI evaluations. */
-std::optional<ShiftedOptimum>
-higherShiftedOptimum(PreparedProblem& problem,
-                     const Eigen::Matrix4d& pose,
-                     const Eigen::Vector3d& up,
-                     int num_threads,
-                     int& evaluations);
+ShiftedOptima
+shiftedOptima(PreparedProblem& problem,
+              const Eigen::Matrix4d& pose,
+              const Eigen::Vector3d& up,
+              int num_threads,
+              int& evaluations);
 
-/** \brief Starts of higherShiftedOptimum() besides the pose: eight directions, three
+/** \brief Starts of shiftedOptima() besides the pose: eight directions, three
  * distances. */
 constexpr int kShiftedStarts = 24;
 

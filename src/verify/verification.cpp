@@ -42,15 +42,24 @@ constexpr double kWeightPeakContrast = 1.42;
 /** Inlier fractions are clamped to [kFractionClamp, 1 - kFractionClamp] for the logit. */
 constexpr double kFractionClamp = 1e-3;
 
-/** The calibration of the model's logit below the verdict's threshold: a monotone
- * piecewise-linear map through these knots' values, fitted by scripts/fit_confidence.py
- * -calibration on every result of the real sets (docs/benchmarks.md, "A calibrated
- * confidence"). Logistic in five terms, the model ranks results well but spreads the
- * uncertain ones too low: their success rises steeply and then levels off. The map runs
- * from the first knot to the threshold's logit, which it keeps, and leaves the logit outside
- * that span as it is: every verdict stays as the model gives it. */
+/** A narrow view's lead (Verification::lead), clamped to [kLeadLow, kLeadHigh], and the
+ * offset that comes with it, fitted by scripts/fit_confidence.py -lead on the narrow views'
+ * results with the terms above kept: a result no other optimum nearby comes close to is the
+ * one place where the clouds agree, and a slide along a facade is not. */
+constexpr double kWeightLead = 19.72;
+constexpr double kLeadOffset = -1.63;
+constexpr double kLeadLow = -0.3;
+constexpr double kLeadHigh = 0.5;
+
+/** The calibration of the model's logit (the lead term included) below the verdict's
+ * threshold: a monotone piecewise-linear map through these knots' values, fitted by
+ * scripts/fit_confidence.py -calibration on every result of the real sets and of scans of
+ * unrelated places (docs/benchmarks.md, "A calibrated confidence", "The lead"): a logistic
+ * line in the logit does not follow how the success of the uncertain results rises. The
+ * map runs from the first knot to the threshold's logit, which it keeps, and leaves the
+ * logit outside that span as it is: it changes no verdict. */
 constexpr double kCalibrationKnots[] = {-5.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0};
-constexpr double kCalibratedLogits[] = {-5.0, -3.14, -2.23, -0.36, 1.09, 1.46, 2.68};
+constexpr double kCalibratedLogits[] = {-5.0, -2.74, -2.67, -0.92, 0.11, 1.03, 2.08};
 
 /** Share of the inliers that a move of one voxel along one of the two least observable
  * directions must lose at least: a floor or a corridor loses only its edges along its free
@@ -68,6 +77,13 @@ rmsRadius(const SourceSamples& source)
   for (const SourceSample& s : source.samples)
     sum += s.position.squaredNorm();
   return source.samples.empty() ? 0.0 : std::sqrt(sum / source.samples.size());
+}
+
+/** True where the \a k-th least observable direction of \a v is free. */
+bool
+isFree(const Verification& v, int k)
+{
+  return v.free_direction_contrast[k] < kFreeDirectionContrast;
 }
 
 /** "x, y and yaw": the axes that the free directions of \a v move. */
@@ -221,7 +237,10 @@ confidenceOf(const Verification& v)
                    kWeightWeakestContrast * v.weakest_contrast +
                    kWeightInlierLogit * std::log(f / (1.0 - f)) +
                    kWeightLogInliers * std::log1p(static_cast<double>(v.inliers)) +
-                   kWeightPeakContrast * v.peak_contrast;
+                   kWeightPeakContrast * v.peak_contrast +
+                   (std::isnan(v.lead) ? 0.0
+                                       : kWeightLead * std::clamp(v.lead, kLeadLow, kLeadHigh) +
+                                             kLeadOffset);
   return 1.0 / (1.0 + std::exp(-calibratedLogit(z)));
 }
 
@@ -283,26 +302,31 @@ verifyPose(const TargetDistributions& target,
   v.normalized_mi = floor_entropy > 0.0 ? h.mutualInformation() / floor_entropy : 0.0;
 
   planeInformation(at, radius, target_centroid, target_axes, v);
-  v.confidence = confidenceOf(v);
   // The two least observable directions ([t, omega * radius]), moved one voxel either way.
-  bool free[2] = {false, false};
   parallelFor(2, num_threads, [&](int k) {
     const Eigen::Matrix<double, 6, 1> direction = v.observability_directions.col(k);
     v.free_direction_contrast[k] = probe.lostEitherWay(resolution * direction.tail<3>() / radius,
                                                        resolution * direction.head<3>());
   });
-  for (int k = 0; k < 2; ++k)
-    free[k] = v.free_direction_contrast[k] < kFreeDirectionContrast;
   // Reported in the input frame: [delta, omega * radius] turn alike.
   v.observability_directions.topRows<3>() = target_axes * v.observability_directions.topRows<3>();
   v.observability_directions.bottomRows<3>() =
       target_axes * v.observability_directions.bottomRows<3>();
+  const bool free[2] = {isFree(v, 0), isFree(v, 1)};
   if (free[0] || free[1] || !sharesSurface(v))
     v.covariance.setZero();
+  judge(v);
+  return v;
+}
 
+void
+judge(Verification& v)
+{
+  v.confidence = confidenceOf(v);
+  const bool free[2] = {isFree(v, 0), isFree(v, 1)};
   std::ostringstream reason;
   if (!sharesSurface(v))
-    reason << "the clouds share too little surface at this resolution (" << at.inliers
+    reason << "the clouds share too little surface at this resolution (" << v.inliers
            << " source samples on a target surface)";
   else if (free[0] || free[1])
     reason << "degenerate along " << freeAxes(v, free) << ": the surfaces leave the pose free there";
@@ -310,7 +334,6 @@ verifyPose(const TargetDistributions& target,
     reason << "the evidence is weak (confidence " << std::fixed << std::setprecision(2)
            << v.confidence << ")";
   v.reason = reason.str();
-  return v;
 }
 
 } // namespace core

@@ -38,6 +38,12 @@ sharesSurface(const Verification& verification)
 double
 calibratedLogit(double z);
 
+/** \brief Sets the confidence of \a v from its evidence, and the reason it fails the
+ * reliability test (empty where it passes). verifyPose() calls it; call it again after
+ * setting Verification::lead. */
+void
+judge(Verification& v);
+
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
