@@ -803,8 +803,9 @@ TEST(Registration, ANarrowViewsVerdictWeighsTheLeadOfItsOptimum)
 
 // The same Livox walk, 6.0 m and 32 deg between the scans, in both directions: searched on
 // MI alone, the coarsest grid (2 m voxels over 4-5 thousand points) scores a wrong pose with
-// more overlap above the right one, and both directions end 0.6-1.9 m off. Normalised MI,
-// which the overlap does not lift, finds it, and the verification trusts it. (The search is
+// more overlap above the right one, which the verification does not trust (before runners-up
+// were finished, both directions ended 0.6-1.9 m off). Normalised MI, which the overlap does
+// not lift, finds it as the search's best, and the verification trusts it. (The search is
 // the subject: the refinement's coarser stages, which pull in the MI-only optima too, are
 // off.)
 TEST(Registration, ALivoxPairIsFoundOnTheCoarsestLevelsNormalisedMI)
@@ -823,13 +824,12 @@ TEST(Registration, ALivoxPairIsFoundOnTheCoarsestLevelsNormalisedMI)
     Cloud aligned;
     reg.align(aligned);
     EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+    EXPECT_EQ(reg.getLastResult().runners_up_checked, 0);
     EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), truth);
 
     reg.setCoarseNormalizedMI(false);
     reg.align(aligned);
-    const auto mi_only =
-        pcl_mi::io::poseError(reg.getFinalTransformation().cast<double>(), truth);
-    EXPECT_GT(mi_only.translation, 0.5);
+    EXPECT_GT(reg.getLastResult().runners_up_checked, 0);
   }
   EXPECT_FALSE(pcl_mi::Parameters::paper().search.coarse_normalized_mi);
 }

@@ -275,7 +275,7 @@ takeIfAgreesBetter(core::PreparedProblem& problem,
  * candidates' overlaps differ. A candidate where the clouds share surface beats one where
  * they share too little whatever their MI: the MI of a few voxels at the edge of the
  * overlap can be high by chance, and such a pose aligns nothing. */
-void
+const core::NelderMeadResult*
 keepTheFinestGridsChoice(core::PreparedProblem& problem,
                          const core::SearchSpace& space,
                          const std::vector<core::NelderMeadResult>& optima,
@@ -283,12 +283,53 @@ keepTheFinestGridsChoice(core::PreparedProblem& problem,
                          AlignmentResult& result,
                          double& finest_normalized_mi)
 {
+  const core::NelderMeadResult* kept = nullptr;
   for (const core::NelderMeadResult& optimum : optima) {
     ++result.runners_up_checked;
     if (takeIfAgreesBetter(problem, space, space.pose(optimum.x), optimum.converged, false,
-                           scratch, result, finest_normalized_mi))
+                           scratch, result, finest_normalized_mi)) {
       result.runner_up_kept = true;
+      kept = &optimum;
+    }
   }
+  return kept;
+}
+
+/** Finishes the search of \a kept, the runner-up \a result holds, whose search stopped at a
+ * candidate's share of the iteration cap, on at most \a left iterations: from where it got,
+ * as the search finishes a capped candidate that wins. The finished optimum is refined and
+ * verified, and stands where it lies on surface the clouds share and the finest grid's
+ * normalised MI prefers it at least as much. */
+void
+finishTheKeptRunnerUp(core::PreparedProblem& problem,
+                      const core::SearchSpace& space,
+                      MutualInformationCosts& costs,
+                      const core::CoarseToFineOptions& options,
+                      const core::NelderMeadResult& kept,
+                      int left,
+                      JointHistogram& scratch,
+                      AlignmentResult& result,
+                      double& finest_normalized_mi)
+{
+  core::StageClock clock;
+  const core::NelderMeadResult finished = core::finishOnFirstLevel(costs, options, kept.x, left);
+  result.iterations += finished.iterations;
+  result.evaluations += finished.evaluations;
+  AlignmentResult other; // its stages are this stage's
+  other.search_converged = finished.converged;
+  const double other_normalized_mi =
+      finishCandidate(problem, space, space.pose(finished.x), scratch, other);
+  if (core::sharesSurface(other.verification) && other_normalized_mi >= finest_normalized_mi) {
+    finest_normalized_mi = other_normalized_mi;
+    result.transformation = other.transformation;
+    result.converged = other.converged;
+    result.search_converged = other.search_converged;
+    result.refinement_iterations = other.refinement_iterations;
+    result.refinement_stages = other.refinement_stages;
+    result.mutual_information = other.mutual_information;
+    result.verification = std::move(other.verification);
+  }
+  clock.end(result.stages, "runner-up finished", finished.evaluations);
 }
 
 /** The up direction of the target's input frame: the one its surfaces show, else z. */
@@ -430,13 +471,18 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
 
   // A second opinion: where the verification does not trust the search's best optimum, the
   // runners-up are refined and verified too, and the one that agrees best with the target
-  // on the finest grid is kept. On sparse, narrow views the coarser grids the search ranks
-  // on often put a wrong optimum first where the finest grid does not (docs/method.md).
+  // on the finest grid is kept, its capped search then finished. On sparse, narrow views the
+  // coarser grids the search ranks on often put a wrong optimum first where the finest grid
+  // does not (docs/method.md).
   if (!result.verification.reason.empty() && !found.alternatives.empty()) {
     core::StageClock clock;
-    keepTheFinestGridsChoice(problem, space, found.alternatives, impl_->scratch, result,
-                             finest_normalized_mi);
+    const core::NelderMeadResult* kept = keepTheFinestGridsChoice(
+        problem, space, found.alternatives, impl_->scratch, result, finest_normalized_mi);
     clock.end(result.stages, "runners-up", result.runners_up_checked);
+    const int left = max_iterations - result.iterations;
+    if (kept && !result.search_converged && left > 0)
+      finishTheKeptRunnerUp(problem, space, costs, options, *kept, left, impl_->scratch, result,
+                            finest_normalized_mi);
   }
 
   // Still not trusted, a 360-degree pair gets a wider second search: more headings, tilt
@@ -562,9 +608,10 @@ notConvergedCause(const AlignmentResult& result, int max_iterations, const std::
   const std::string search =
       result.runner_up_kept
           ? "the result is a runner-up of the search, kept because the finest grid prefers it "
-            "to an untrusted best, and its search was capped at a candidate's share of the "
-            "iteration cap " +
-                cap + " before the simplex met its tolerances"
+            "to an untrusted best, and neither its search, capped at a candidate's share of "
+            "the iteration cap " +
+                cap + ", nor that search finished on the rest of the cap met the simplex's "
+                      "tolerances where the finest grid still prefers it"
           : (result.iterations >= max_iterations
                  ? "the iteration cap " + cap + " ended the search"
                  : "the best search stopped at its share of the iteration cap " + cap) +

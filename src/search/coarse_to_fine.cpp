@@ -418,5 +418,20 @@ searchCoarseToFine(LevelCosts& costs, const CoarseToFineOptions& options)
   return std::move(searcher.result());
 }
 
+NelderMeadResult
+finishOnFirstLevel(LevelCosts& costs,
+                   const CoarseToFineOptions& options,
+                   const Eigen::VectorXd& x,
+                   int max_iterations)
+{
+  CoarseToFineOptions capped = options;
+  capped.max_iterations = max_iterations;
+  Searcher searcher(costs, capped);
+  // The scale the first level's candidates were searched with (searchCoarseToFine()).
+  const int halvings = std::max(costs.levels() - 2 - options.first_level, 0);
+  const double scale = options.restart_scale * std::ldexp(1.0, -halvings);
+  return searcher.search(options.first_level, {x, 0.5 * scale * options.steps, max_iterations});
+}
+
 } // namespace core
 } // namespace pcl_mi

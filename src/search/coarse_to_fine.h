@@ -102,5 +102,15 @@ struct CoarseToFineResult {
 CoarseToFineResult
 searchCoarseToFine(LevelCosts& costs, const CoarseToFineOptions& options);
 
+/** \brief Finishes a capped search of options.first_level (one of
+ * CoarseToFineResult::alternatives) from its end \a x, as the search finishes a capped
+ * candidate that wins: a simplex of half that level's steps, at most \a max_iterations
+ * iterations, the level's tolerance. */
+NelderMeadResult
+finishOnFirstLevel(LevelCosts& costs,
+                   const CoarseToFineOptions& options,
+                   const Eigen::VectorXd& x,
+                   int max_iterations);
+
 } // namespace core
 } // namespace pcl_mi
