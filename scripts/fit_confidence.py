@@ -24,14 +24,14 @@ WL * clamp(lead, LEAD_CLAMP) + BL added to the logit of the results with a lead 
 last column, NaN for 360-degree views), by logistic regression over those results; it
 prints WL and BL and the verdict in sample and with each set left out.
 
-With -calibration B0,W1,...,W5[,WL,BL] the model is kept too (with its lead term), and the logit z below logit(THRESHOLD)
-goes through a monotone piecewise-linear map with knots at CALIBRATION_KNOTS (the map of
-src/verify/verification.cpp): its ends stay where they are, and the values at the inner
-knots are a logistic regression of success on the map's hat functions, fitted over the
-pooled results (each result weighs the same, as in the reliability diagram), penalised
-for bends and for straying from the identity. Every verdict stays as it is. A set named "unrelated"
-(scripts/unrelated_pairs.py) takes part in the fit and is left out of the acceptance
-diagram; its mean confidence is printed.
+With -calibration B0,W1,...,W5[,WL,BL] the model is kept too (with its lead term), and the
+logit z below logit(THRESHOLD) goes through a monotone piecewise-linear map with knots at
+CALIBRATION_KNOTS (the map of src/verify/verification.cpp): its ends stay where they are,
+and the values at the inner knots are a logistic regression of success on the map's hat
+functions, fitted over the pooled results (each result weighs the same, as in the
+reliability diagram), penalised for bends and for straying from the identity. Every verdict
+stays as it is. A set named "unrelated" (scripts/unrelated_pairs.py) takes part in the fit
+and is left out of the acceptance diagram; its mean confidence is printed.
 
 Usage: fit_confidence.py [-success T,R]
                          [-weights W1,...,W5 | -below_threshold B0,W1,...,W5 |
@@ -54,9 +54,9 @@ CALIBRATION_KNOTS = np.array([-5.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0,
 # The fit's penalties: on the change of slope from knot to knot, and on the distance from
 # the identity.
 CALIBRATION_SMOOTHNESS = 0.3
+CALIBRATION_RIDGE = 1.0
 # The lead's clamp (src/verify/verification.cpp).
 LEAD_CLAMP = (-0.3, 0.5)
-CALIBRATION_RIDGE = 1.0
 
 
 def passes_gate(row):
@@ -126,9 +126,10 @@ def lead_term(sets, leads, model):
             y, said = sets[n][1], sets[n][2] & (p >= THRESHOLD)
             totals += [said.sum(), (said & ~y).sum(), (said & y).sum(), y.sum()]
             if n in narrow:
+                wrong, found = (said & ~y).sum(), (said & y).sum()
                 print("  %-24s %5d converged, %3d wrong (%.2f %%), recall %5.1f %%" % (
-                    n, said.sum(), (said & ~y).sum(), 100.0 * (said & ~y).sum() / max(said.sum(), 1),
-                    100.0 * (said & y).sum() / max(y.sum(), 1)))
+                    n, said.sum(), wrong, 100.0 * wrong / max(said.sum(), 1),
+                    100.0 * found / max(y.sum(), 1)))
         print("%s, all sets: %d converged, %d wrong (%.2f %%), recall %.1f %%" % (
             title, totals[0], totals[1], 100.0 * totals[1] / max(totals[0], 1),
             100.0 * totals[2] / max(totals[3], 1)))
@@ -292,7 +293,8 @@ def calibration(sets, leads, model):
     print_reliability("Each set left out",
                       p(accepted, lambda n, v: calibrate(held_out[n], v)), y_accepted)
     if "unrelated" in sets:
-        for title, f in (("before", lambda n, v: v), ("in sample", lambda n, v: calibrate(values, v)),
+        for title, f in (("before", lambda n, v: v),
+                         ("in sample", lambda n, v: calibrate(values, v)),
                          ("left out", lambda n, v: calibrate(held_out[n], v))):
             q = p(["unrelated"], f)
             print("unrelated, %s: mean confidence %.3f, median %.3f, most %.3f" % (

@@ -195,7 +195,8 @@ runMethod(const std::string& chain,
                                 v.peak_contrast,
                                 v.weakest_contrast,
                                 v.normalized_mi,
-                                std::min(v.free_direction_contrast[0], v.free_direction_contrast[1]),
+                                std::min(v.free_direction_contrast[0],
+                                         v.free_direction_contrast[1]),
                                 v.lead};
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
   }

@@ -608,10 +608,11 @@ notConvergedCause(const AlignmentResult& result, int max_iterations, const std::
   const std::string search =
       result.runner_up_kept
           ? "the result is a runner-up of the search, kept because the finest grid prefers it "
-            "to an untrusted best, and neither its search, capped at a candidate's share of "
-            "the iteration cap " +
-                cap + ", nor that search finished on the rest of the cap met the simplex's "
-                      "tolerances where the finest grid still prefers it"
+            "to an untrusted best; its search was capped at a candidate's share of the "
+            "iteration cap " +
+                cap +
+                " before the simplex met its tolerances, and finishing it, where the cap left "
+                "room, gave no optimum the finest grid prefers as much"
           : (result.iterations >= max_iterations
                  ? "the iteration cap " + cap + " ended the search"
                  : "the best search stopped at its share of the iteration cap " + cap) +
