@@ -110,7 +110,7 @@ def fit_lead(z, lead, y):
 
 def lead_term(sets, leads, model):
     """The -lead mode."""
-    z = {n: model[0] + sets[n][0] @ model[1:6] for n in sets}
+    z = {n: logit_of(model, sets[n][0], leads[n]) for n in sets}
     narrow = [n for n in sets if (~np.isnan(leads[n])).any()]
 
     def fitted(names):

@@ -230,6 +230,25 @@ widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions
   }
 }
 
+/** Makes the refined and verified candidate \a other, whose normalised MI on the finest grid
+ * is \a other_normalized_mi, the result: its pose, verdict and refinement, not the counts and
+ * stages of the whole alignment. */
+void
+takeCandidate(AlignmentResult&& other,
+              double other_normalized_mi,
+              AlignmentResult& result,
+              double& finest_normalized_mi)
+{
+  finest_normalized_mi = other_normalized_mi;
+  result.transformation = other.transformation;
+  result.converged = other.converged;
+  result.search_converged = other.search_converged;
+  result.refinement_iterations = other.refinement_iterations;
+  result.refinement_stages = other.refinement_stages;
+  result.mutual_information = other.mutual_information;
+  result.verification = std::move(other.verification);
+}
+
 /** Refines and verifies \a pose, whose search's convergence is \a search_converged, and
  * makes it the result where it agrees better with the target: it lies on surfaces the
  * clouds share where the result does not, or, alike in that, it has the higher normalised MI
@@ -257,14 +276,7 @@ takeIfAgreesBetter(core::PreparedProblem& problem,
                           : other_normalized_mi > finest_normalized_mi;
   if (!better)
     return false;
-  finest_normalized_mi = other_normalized_mi;
-  result.transformation = other.transformation;
-  result.converged = other.converged;
-  result.search_converged = other.search_converged;
-  result.refinement_iterations = other.refinement_iterations;
-  result.refinement_stages = other.refinement_stages;
-  result.mutual_information = other.mutual_information;
-  result.verification = std::move(other.verification);
+  takeCandidate(std::move(other), other_normalized_mi, result, finest_normalized_mi);
   return true;
 }
 
@@ -319,16 +331,8 @@ finishTheKeptRunnerUp(core::PreparedProblem& problem,
   other.search_converged = finished.converged;
   const double other_normalized_mi =
       finishCandidate(problem, space, space.pose(finished.x), scratch, other);
-  if (core::sharesSurface(other.verification) && other_normalized_mi >= finest_normalized_mi) {
-    finest_normalized_mi = other_normalized_mi;
-    result.transformation = other.transformation;
-    result.converged = other.converged;
-    result.search_converged = other.search_converged;
-    result.refinement_iterations = other.refinement_iterations;
-    result.refinement_stages = other.refinement_stages;
-    result.mutual_information = other.mutual_information;
-    result.verification = std::move(other.verification);
-  }
+  if (core::sharesSurface(other.verification) && other_normalized_mi >= finest_normalized_mi)
+    takeCandidate(std::move(other), other_normalized_mi, result, finest_normalized_mi);
   clock.end(result.stages, "runner-up finished", finished.evaluations);
 }
 
