@@ -71,6 +71,9 @@ miOptionTable(MiOptionSet set)
        format("headings of the wider second search a 360-degree pair gets when its\n"
               "result is not trusted (default %g; 0 = none)",
               d.search.second_search_headings)},
+      {"-reverse_search", V::Text, "-reverse_search on|off",
+       "where the result is not trusted, also align the target onto the source\n"
+       "and keep that result where the finest grid prefers it (default on)"},
       {"-leveling", V::Text, "-leveling on|off",
        "search a 360-degree pair along the target's up where the clouds' up\n"
        "directions disagree by more than 5 deg (a sensor carried tilted) or agree\n"
@@ -208,6 +211,8 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
   readInt(argc, argv, "-narrow_view_scans", p.search.narrow_view_scanned_starts);
   readInt(argc, argv, "-second_search", p.search.second_search_headings);
   std::string error = readOnOff(argc, argv, "-leveling", p.search.leveling);
+  if (error.empty())
+    error = readOnOff(argc, argv, "-reverse_search", p.search.reverse_search);
   if (error.empty())
     error = readOnOff(argc, argv, "-coarse_nmi", p.search.coarse_normalized_mi);
   if (!error.empty())

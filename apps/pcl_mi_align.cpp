@@ -324,6 +324,13 @@ run(int argc, char** argv)
                     ? "one kept (it agrees better with the target on the finest grid)"
                     : "none kept");
   }
+  if (reg.getLastResult().reverse_search) {
+    print_info("Reverse search: ");
+    print_value("%s\n", reg.getLastResult().reverse_kept
+                            ? "kept (the target aligned onto the source agrees better with the "
+                              "target on the finest grid)"
+                            : "ran, not kept");
+  }
   if (reg.getLastResult().shifted_optimum_kept) {
     print_info("Shifted optimum: ");
     print_value("kept (a higher MI on the finest grid a few voxels across, at the same "

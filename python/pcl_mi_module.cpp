@@ -126,6 +126,7 @@ toSettings(const py::kwargs& kwargs)
        [&](const py::handle& v) { p.search.narrow_view_yaw_start = v.cast<double>(); }},
       {"narrow_view_scanned_starts",
        [&](const py::handle& v) { p.search.narrow_view_scanned_starts = v.cast<int>(); }},
+      {"reverse_search", [&](const py::handle& v) { p.search.reverse_search = v.cast<bool>(); }},
       {"second_search_headings",
        [&](const py::handle& v) { p.search.second_search_headings = v.cast<int>(); }},
       {"leveling", [&](const py::handle& v) { p.search.leveling = v.cast<bool>(); }},

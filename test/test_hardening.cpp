@@ -284,8 +284,10 @@ TEST_F(Hardening, Class7RestartsAreBounded)
   reg.setNumberOfRestarts(100);
   reg.setSimplexSteps((Registration::Vector6d() << 1e-6, 1e-6, 1e-6, 1e-7, 1e-7, 1e-7).finished());
   reg.setMaximumIterations(20);
-  // The second search's starts each cost a simplex, whatever the budget: not the subject.
+  // The second and the reverse search's starts each cost a simplex, whatever the budget:
+  // not the subject.
   reg.setSecondSearchHeadings(0);
+  reg.setReverseSearch(false);
   reg.setInputSource(source_);
   reg.setInputTarget(target_);
   Cloud output;

@@ -320,6 +320,21 @@ public:
     return core_.parameters().search.second_search_headings;
   }
 
+  /** \brief Where the verification does not trust the result, also align the target onto
+   * the source and keep that result, inverted, where the finest grid prefers it (default
+   * true; pcl_mi::SearchParameters::reverse_search). getLastResult().reverse_search and
+   * reverse_kept say whether it ran and was kept. */
+  void
+  setReverseSearch(bool reverse)
+  {
+    setField("setReverseSearch", &Params::search, &Search::reverse_search, reverse);
+  }
+  bool
+  getReverseSearch() const
+  {
+    return core_.parameters().search.reverse_search;
+  }
+
   /** \brief Search a 360-degree pair along the target's up direction (from its horizontal
    * surfaces), starting from the guess turned so that the two clouds' ups agree where they
    * disagree by more than 5 degrees (a sensor carried tilted), and from the guess itself

@@ -178,6 +178,15 @@ struct SearchParameters {
    * result that passes never pays for it (docs/method.md, "The verdict"). It runs on what
    * is left of the iteration cap. */
   int second_search_headings = 4;
+  /** When the verification does not trust the result: the target is also searched onto
+   * the source, from the inverse of the guess, and that search's best optimum and
+   * runners-up, inverted, are refined and verified as candidates, one kept where it lies on
+   * surface the clouds share and agrees better with the target on the finest grid
+   * (AlignmentResult::reverse_kept). The cost samples the source and bins the target, so
+   * the two directions are different problems: on sparse, narrow views one often finds the
+   * pose where the other does not (docs/benchmarks.md, "The reverse search"). It runs on
+   * what is left of the iteration cap. */
+  bool reverse_search = true;
   /** For clouds without a narrow field of view: where the two clouds' up directions, read
    * from their horizontal surfaces (ground, floor, ceiling), disagree under the guess by
    * more than 5 degrees, both searches start from the guess turned about the source's

@@ -178,6 +178,13 @@ struct AlignmentResult {
   /** The wider second search ran (SearchParameters::second_search_headings); where it found
    * the result, runner_up_kept is true too. */
   bool second_search = false;
+  /** The reverse search ran (SearchParameters::reverse_search): the target was aligned onto
+   * the source too. */
+  bool reverse_search = false;
+  /** The result is one of the reverse search's optima, inverted, refined and verified: it
+   * lies on surface the clouds share and agreed better with the target on the finest grid
+   * than the result before it. */
+  bool reverse_kept = false;
   /** For a narrow field of view: the result moved to a higher optimum of the MI on the
    * finest grid a few voxels across, at the same rotation, as on a facade whose windows or
    * pillars repeat. */

@@ -94,7 +94,8 @@ SearchParameters::operator==(const SearchParameters& o) const
          narrow_view_tilt_step == o.narrow_view_tilt_step &&
          narrow_view_yaw_start == o.narrow_view_yaw_start &&
          narrow_view_scanned_starts == o.narrow_view_scanned_starts &&
-         second_search_headings == o.second_search_headings && leveling == o.leveling &&
+         second_search_headings == o.second_search_headings &&
+         reverse_search == o.reverse_search && leveling == o.leveling &&
          coarse_normalized_mi == o.coarse_normalized_mi &&
          restarts == o.restarts && restart_scale == o.restart_scale &&
          translation_tolerance == o.translation_tolerance &&
@@ -118,6 +119,7 @@ Parameters::paper()
   p.search.narrow_view_yaw_start = 0.0;
   p.search.narrow_view_scanned_starts = 0;
   p.search.second_search_headings = 0;
+  p.search.reverse_search = false;
   p.search.leveling = false;
   p.search.coarse_normalized_mi = false;
   p.grid.variance_z_binning.range_quantile = 0.0;

@@ -58,6 +58,17 @@ public:
   setTarget(PointList points);
   void
   setSource(PointList points);
+  /** \brief The clouds as set, before any preparation. */
+  const PointList&
+  targetInput() const
+  {
+    return target_input_;
+  }
+  const PointList&
+  sourceInput() const
+  {
+    return source_input_;
+  }
 
   /** \brief Brings everything stale up to date; false (with \a error) when the clouds or
    * parameters cannot be used. The work runs as independent tasks over the threads, each

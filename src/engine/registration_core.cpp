@@ -344,11 +344,23 @@ targetUpInInput(const core::PreparedProblem& problem)
                             : Eigen::Vector3d::UnitZ();
 }
 
+/** A search's optimum as a pose, with whether its search converged. */
+struct FoundOptimum {
+  Eigen::Matrix4d pose;
+  bool converged;
+};
+
 } // namespace
 
 struct RegistrationCore::Impl {
   core::PreparedProblem problem;
   JointHistogram scratch;
+  /** For the reverse search: align() stops after the search, with its best optimum and
+   * the runners-up in search_optima. */
+  bool stop_after_search = false;
+  std::vector<FoundOptimum> search_optima;
+  /** The reverse search's core, made on first use and kept with its backends and buffers. */
+  std::unique_ptr<RegistrationCore> reverse;
 };
 
 RegistrationCore::RegistrationCore() : impl_(std::make_unique<Impl>()) {}
@@ -470,6 +482,13 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
   result.search_converged = found.best.converged;
+  if (impl_->stop_after_search) {
+    impl_->search_optima.clear();
+    impl_->search_optima.push_back({space.pose(found.best.x), found.best.converged});
+    for (const core::NelderMeadResult& optimum : found.alternatives)
+      impl_->search_optima.push_back({space.pose(optimum.x), optimum.converged});
+    return result;
+  }
   double finest_normalized_mi =
       finishCandidate(problem, space, space.pose(found.best.x), impl_->scratch, result);
 
@@ -511,6 +530,35 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     optima.insert(optima.end(), again.alternatives.begin(), again.alternatives.end());
     keepTheFinestGridsChoice(problem, space, optima, impl_->scratch, result, finest_normalized_mi);
     clock.end(result.stages, "second search", again.evaluations);
+  }
+
+  // Still not trusted: the target aligned onto the source. The cost samples one cloud and
+  // bins the other, so the reverse is another problem, and on sparse, narrow views its
+  // search often finds the pose where this one missed it (docs/benchmarks.md, "The reverse
+  // search"). Its optima, inverted, are judged here as runners-up are, on shared surface only.
+  const int reverse_left = max_iterations - result.iterations;
+  if (!result.verification.reason.empty() && p.search.reverse_search && reverse_left > 0) {
+    core::StageClock clock;
+    if (!impl_->reverse) {
+      impl_->reverse = std::make_unique<RegistrationCore>();
+      impl_->reverse->impl_->stop_after_search = true;
+    }
+    RegistrationCore& reverse = *impl_->reverse;
+    Parameters reverse_parameters = p; // the resolution in use, not one derived from the source
+    reverse_parameters.search.reverse_search = false;
+    reverse.setParameters(reverse_parameters);
+    reverse.setTarget(problem.sourceInput());
+    reverse.setSource(problem.targetInput());
+    const AlignmentResult back = reverse.align(guess.inverse(), reverse_left);
+    result.reverse_search = true;
+    result.iterations += back.iterations;
+    result.evaluations += back.evaluations;
+    if (back.error.empty())
+      for (const FoundOptimum& optimum : reverse.impl_->search_optima)
+        if (takeIfAgreesBetter(problem, space, optimum.pose.inverse(), optimum.converged, true,
+                               impl_->scratch, result, finest_normalized_mi))
+          result.reverse_kept = true;
+    clock.end(result.stages, "reverse search", back.evaluations);
   }
 
   // A narrow view of a repeating facade: the coarser grids the search ranks on cannot tell
@@ -610,7 +658,12 @@ notConvergedCause(const AlignmentResult& result, int max_iterations, const std::
     return evidence;
   const std::string cap = "(" + cap_name + ")";
   const std::string search =
-      result.runner_up_kept
+      result.reverse_kept
+          ? "the result is an optimum of the reverse search (the target searched onto the "
+            "source), kept because the finest grid prefers it to an untrusted one; that search "
+            "stopped at its share of what the iteration cap " +
+                cap + " left before the simplex met its tolerances"
+      : result.runner_up_kept
           ? "the result is a runner-up of the search, kept because the finest grid prefers it "
             "to an untrusted best; its search was capped at a candidate's share of the "
             "iteration cap " +
