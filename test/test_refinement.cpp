@@ -331,6 +331,30 @@ TEST(Verification, CalibrationKeepsTheOrderAndTheThreshold)
   EXPECT_NEAR(calibratedLogit(std::nextafter(threshold, 0.0)), threshold, 1e-9);
 }
 
+// Evidence that passes with a lead fails with a negative one, whatever the confidence: another
+// optimum a few voxels across scores higher, so the result is not the one place where the
+// clouds agree. A 360-degree view has no lead (NaN) and is judged without it.
+TEST(Verification, ANegativeLeadIsASecondOptimum)
+{
+  pcl_mi::Verification v;
+  v.inliers = 5000;
+  v.inlier_fraction = 0.9;
+  v.normalized_mi = 0.3;
+  v.peak_contrast = 0.5;
+  v.weakest_contrast = 0.3;
+  v.free_direction_contrast[0] = v.free_direction_contrast[1] = 0.2;
+  pcl_mi::core::judge(v);
+  EXPECT_EQ(v.reason, "");
+  EXPECT_GE(v.confidence, pcl_mi::core::kReliableConfidence);
+  v.lead = 0.3;
+  pcl_mi::core::judge(v);
+  EXPECT_EQ(v.reason, "");
+  v.lead = -0.02;
+  pcl_mi::core::judge(v);
+  EXPECT_NE(v.reason.find("a second optimum"), std::string::npos) << v.reason;
+  EXPECT_NE(v.reason.find("-2 %"), std::string::npos) << v.reason;
+}
+
 TEST(TargetDistributions, FindBlockGivesFindsAnswers)
 {
   // The lookups of a real scan's cubes, block by block, against one at a time: points on

@@ -125,8 +125,8 @@ struct Verification {
   double free_direction_contrast[2] = {0.0, 0.0};
   /** Narrow fields of view only, NaN otherwise: how far the MI on the finest grid of the
    * result's optimum in translation leads the highest other optimum found within six voxels
-   * across, as a share of its own; negative where another scores higher, 1 where the
-   * searches found none (docs/method.md, "Shifted optima"). */
+   * across, as a share of its own; negative where another scores higher, which the verdict
+   * does not pass, 1 where the searches found none (docs/method.md, "Shifted optima"). */
   double lead = std::numeric_limits<double>::quiet_NaN();
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. */

@@ -330,6 +330,10 @@ judge(Verification& v)
            << " source samples on a target surface)";
   else if (free[0] || free[1])
     reason << "degenerate along " << freeAxes(v, free) << ": the surfaces leave the pose free there";
+  else if (v.lead < 0.0) // false for NaN
+    reason << "a second optimum: one a few voxels across scores a higher MI on the finest "
+              "grid (the result's lead is "
+           << std::fixed << std::setprecision(0) << 100.0 * v.lead << " %)";
   else if (v.confidence < kReliableConfidence)
     reason << "the evidence is weak (confidence " << std::fixed << std::setprecision(2)
            << v.confidence << ")";
