@@ -72,8 +72,9 @@ miOptionTable(MiOptionSet set)
               "result is not trusted (default %g; 0 = none)",
               d.search.second_search_headings)},
       {"-reverse_search", V::Text, "-reverse_search on|off",
-       "where the result is not trusted, also align the target onto the source\n"
-       "and keep that result where the finest grid prefers it (default on)"},
+       "where the result is not trusted, also search the target onto the source\n"
+       "and keep one of its optima, inverted, where it shares surface and the\n"
+       "finest grid prefers it (default on)"},
       {"-leveling", V::Text, "-leveling on|off",
        "search a 360-degree pair along the target's up where the clouds' up\n"
        "directions disagree by more than 5 deg (a sensor carried tilted) or agree\n"

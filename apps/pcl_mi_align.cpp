@@ -327,8 +327,8 @@ run(int argc, char** argv)
   if (reg.getLastResult().reverse_search) {
     print_info("Reverse search: ");
     print_value("%s\n", reg.getLastResult().reverse_kept
-                            ? "kept (the target aligned onto the source agrees better with the "
-                              "target on the finest grid)"
+                            ? "kept (an optimum of the target searched onto the source agrees "
+                              "better with the target on the finest grid)"
                             : "ran, not kept");
   }
   if (reg.getLastResult().shifted_optimum_kept) {

@@ -320,10 +320,11 @@ public:
     return core_.parameters().search.second_search_headings;
   }
 
-  /** \brief Where the verification does not trust the result, also align the target onto
-   * the source and keep that result, inverted, where the finest grid prefers it (default
-   * true; pcl_mi::SearchParameters::reverse_search). getLastResult().reverse_search and
-   * reverse_kept say whether it ran and was kept. */
+  /** \brief Where the verification does not trust the result, also search the target onto
+   * the source, on what is left of the iteration cap, and keep one of that search's optima,
+   * inverted, where it lies on surface the clouds share and the finest grid prefers it
+   * (default true; pcl_mi::SearchParameters::reverse_search). getLastResult().reverse_search
+   * and reverse_kept say whether it ran and whether one was kept. */
   void
   setReverseSearch(bool reverse)
   {

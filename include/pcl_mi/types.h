@@ -178,7 +178,7 @@ struct AlignmentResult {
   /** The wider second search ran (SearchParameters::second_search_headings); where it found
    * the result, runner_up_kept is true too. */
   bool second_search = false;
-  /** The reverse search ran (SearchParameters::reverse_search): the target was aligned onto
+  /** The reverse search ran (SearchParameters::reverse_search): the target was searched onto
    * the source too. */
   bool reverse_search = false;
   /** The result is one of the reverse search's optima, inverted, refined and verified: it

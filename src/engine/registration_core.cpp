@@ -532,7 +532,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     clock.end(result.stages, "second search", again.evaluations);
   }
 
-  // Still not trusted: the target aligned onto the source. The cost samples one cloud and
+  // Still not trusted: the target searched onto the source. The cost samples one cloud and
   // bins the other, so the reverse is another problem, and on sparse, narrow views its
   // search often finds the pose where this one missed it (docs/benchmarks.md, "The reverse
   // search"). Its optima, inverted, are judged here as runners-up are, on shared surface only.
