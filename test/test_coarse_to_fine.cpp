@@ -261,6 +261,24 @@ TEST(CoarseToFine, TheBudgetCapsEveryIterationAndThreadsDoNotChangeTheResult)
   EXPECT_EQ(a.evaluations, b.evaluations);
 }
 
+TEST(CoarseToFine, TheBudgetHoldsWithManyCandidatesOnTheFinerLevels)
+{
+  // A rugged cost and many starts leave several distinct candidates for every finer level,
+  // where the first gets half of what the coarsest level left and the others share the rest.
+  SyntheticCosts costs(3, [](int level, const Eigen::VectorXd& x) {
+    return 0.05 * x.squaredNorm() + std::cos(1.3 * x[0]) + std::cos(1.7 * x[1]) +
+           std::cos(9.0 * x[2]) + 0.01 * level;
+  });
+  CoarseToFineOptions o = planarOptions();
+  o.heading_starts = 6;
+  o.position_starts = 8;
+  for (int budget = 30; budget <= 900; budget += 15) {
+    o.max_iterations = budget;
+    const CoarseToFineResult r = pcl_mi::core::searchCoarseToFine(costs, o);
+    EXPECT_LE(r.iterations, budget);
+  }
+}
+
 namespace {
 
 /** SyntheticCosts that asks for batches (as a GPU backend does) and records their sizes. */

@@ -804,7 +804,7 @@ TEST(Registration, ANarrowViewsVerdictWeighsTheLeadOfItsOptimum)
   EXPECT_TRUE(std::isnan(reg.getVerification().lead));
 }
 
-// The Livox turned on the spot, its second bundled pair 42 deg apart: every search of this
+// The Livox turned on the spot, its second bundled pair 39 deg apart: every search of this
 // direction ends on wrong optima the verification refuses, while the target searched onto
 // the source finds the pose, which the verification then trusts. Without the reverse
 // search the result is metres off and not converged.

@@ -315,8 +315,10 @@ public:
       account(search(level, {candidates[0], steps, budget_}));
       return;
     }
+    // The others share the rest of the budget, so that the level keeps within it.
     const int cap = std::max(budget_ / 2, 0);
-    const int capped = std::min(cap, kGuessCandidateIterations);
+    const int others = static_cast<int>(candidates.size()) - 1;
+    const int capped = std::min((budget_ - cap) / others, kGuessCandidateIterations);
     std::vector<Start> runs;
     for (std::size_t i = 0; i < candidates.size(); ++i)
       runs.push_back({candidates[i], steps, i == 0 ? cap : capped});
