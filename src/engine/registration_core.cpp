@@ -307,8 +307,9 @@ keepTheFinestGridsChoice(core::PreparedProblem& problem,
   return kept;
 }
 
-/** Finishes the search of \a kept, the runner-up \a result holds, whose search stopped at a
- * candidate's share of the iteration cap, on at most \a left iterations: from where it got,
+/** Finishes the search of the runner-up \a result holds, which stopped at \a from (its
+ * search vector) at a candidate's share of the iteration cap, on at most \a left
+ * iterations: from where it got,
  * as the search finishes a capped candidate that wins. The finished optimum is refined and
  * verified, and stands where it lies on surface the clouds share and the finest grid's
  * normalised MI prefers it at least as much. */
@@ -317,14 +318,14 @@ finishTheKeptRunnerUp(core::PreparedProblem& problem,
                       const core::SearchSpace& space,
                       MutualInformationCosts& costs,
                       const core::CoarseToFineOptions& options,
-                      const core::NelderMeadResult& kept,
+                      const Eigen::VectorXd& from,
                       int left,
                       JointHistogram& scratch,
                       AlignmentResult& result,
                       double& finest_normalized_mi)
 {
   core::StageClock clock;
-  const core::NelderMeadResult finished = core::finishOnFirstLevel(costs, options, kept.x, left);
+  const core::NelderMeadResult finished = core::finishOnFirstLevel(costs, options, from, left);
   result.iterations += finished.iterations;
   result.evaluations += finished.evaluations;
   AlignmentResult other; // its stages are this stage's
@@ -504,7 +505,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     clock.end(result.stages, "runners-up", result.runners_up_checked);
     const int left = max_iterations - result.iterations;
     if (kept && !result.search_converged && left > 0)
-      finishTheKeptRunnerUp(problem, space, costs, options, *kept, left, impl_->scratch, result,
+      finishTheKeptRunnerUp(problem, space, costs, options, kept->x, left, impl_->scratch, result,
                             finest_normalized_mi);
   }
 
@@ -553,12 +554,21 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     result.reverse_search = true;
     result.iterations += back.iterations;
     result.evaluations += back.evaluations;
+    Eigen::Matrix4d kept_pose;
     if (back.error.empty())
       for (const FoundOptimum& optimum : reverse.impl_->search_optima)
         if (takeIfAgreesBetter(problem, space, optimum.pose.inverse(), optimum.converged, true,
-                               impl_->scratch, result, finest_normalized_mi))
+                               impl_->scratch, result, finest_normalized_mi)) {
           result.reverse_kept = true;
+          kept_pose = optimum.pose.inverse();
+        }
     clock.end(result.stages, "reverse search", back.evaluations);
+    // A kept optimum whose search was capped is finished in this direction's search, as a
+    // kept runner-up is, where the cap leaves room.
+    const int left_after = max_iterations - result.iterations;
+    if (result.reverse_kept && !result.search_converged && left_after > 0)
+      finishTheKeptRunnerUp(problem, space, costs, options, space.vector(kept_pose), left_after,
+                            impl_->scratch, result, finest_normalized_mi);
   }
 
   // A narrow view of a repeating facade: the coarser grids the search ranks on cannot tell

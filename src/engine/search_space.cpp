@@ -5,6 +5,8 @@
 
 #include "engine/pose.h"
 
+#include <Eigen/LU>
+
 #include <algorithm>
 
 namespace pcl_mi {
@@ -44,6 +46,25 @@ SearchSpace::pose(const Eigen::VectorXd& x) const
   move.topLeftCorner<3, 3>() = r;
   move.topRightCorner<3, 1>() = a * full.head<3>() + pivot_ - r * pivot_;
   return move * guess_;
+}
+
+Eigen::VectorXd
+SearchSpace::vector(const Eigen::Matrix4d& pose) const
+{
+  // pose() inverted: the move from the guess, its rotation and translation in the axes.
+  const Eigen::Matrix4d move = pose * guess_.inverse();
+  const Eigen::Matrix3d a = axes_ ? *axes_ : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d r = move.topLeftCorner<3, 3>();
+  const Eigen::Matrix3d local = a.transpose() * r * a; // Rz(yaw) * Ry(pitch) * Rx(roll)
+  Vector6d full;
+  full.head<3>() = a.transpose() * (move.topRightCorner<3, 1>() - pivot_ + r * pivot_);
+  full[3] = std::atan2(local(2, 1), local(2, 2));
+  full[4] = std::asin(std::clamp(-local(2, 0), -1.0, 1.0));
+  full[5] = std::atan2(local(1, 0), local(0, 0));
+  Eigen::VectorXd x(static_cast<Eigen::Index>(active_.size()));
+  for (std::size_t i = 0; i < active_.size(); ++i)
+    x[static_cast<Eigen::Index>(i)] = full[active_[i]];
+  return x;
 }
 
 Eigen::Index

@@ -36,6 +36,11 @@ public:
   Eigen::Matrix4d
   pose(const Eigen::VectorXd& x) const;
 
+  /** \brief The search vector of \a pose: pose(vector(pose)) is \a pose where the pinned
+   * parameters of its move from the guess are zero. */
+  Eigen::VectorXd
+  vector(const Eigen::Matrix4d& pose) const;
+
   /** \brief Where parameter 0..5 sits in the search vector; -1 when pinned. */
   Eigen::Index
   index(int parameter) const;
