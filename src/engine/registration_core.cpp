@@ -672,7 +672,9 @@ notConvergedCause(const AlignmentResult& result, int max_iterations, const std::
           ? "the result is an optimum of the reverse search (the target searched onto the "
             "source), kept because the finest grid prefers it to an untrusted one; that search "
             "stopped at its share of what the iteration cap " +
-                cap + " left before the simplex met its tolerances"
+                cap +
+                " left before the simplex met its tolerances, and finishing it, where the cap "
+                "left room, gave no optimum the finest grid prefers as much"
       : result.runner_up_kept
           ? "the result is a runner-up of the search, kept because the finest grid prefers it "
             "to an untrusted best; its search was capped at a candidate's share of the "
