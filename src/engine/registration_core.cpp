@@ -362,6 +362,34 @@ struct RegistrationCore::Impl {
   std::vector<FoundOptimum> search_optima;
   /** The reverse search's core, made on first use and kept with its backends and buffers. */
   std::unique_ptr<RegistrationCore> reverse;
+
+  /** Searches the target onto the source from the inverse of \a guess, with \a parameters
+   * (those in use, so that the source's extent derives nothing) on at most
+   * \a max_iterations, and returns that search's optima (source-to-target poses of the
+   * reverse problem, best first), empty where it failed; adds its counts to \a result. */
+  const std::vector<FoundOptimum>&
+  reverseSearchOptima(const Parameters& parameters,
+                      const Eigen::Matrix4d& guess,
+                      int max_iterations,
+                      AlignmentResult& result)
+  {
+    if (!reverse) {
+      reverse = std::make_unique<RegistrationCore>();
+      reverse->impl_->stop_after_search = true;
+    }
+    Parameters reverse_parameters = parameters;
+    reverse_parameters.search.reverse_search = false;
+    reverse->setParameters(reverse_parameters);
+    reverse->setTarget(problem.sourceInput());
+    reverse->setSource(problem.targetInput());
+    const AlignmentResult back = reverse->align(guess.inverse(), max_iterations);
+    result.reverse_search = true;
+    result.iterations += back.iterations;
+    result.evaluations += back.evaluations;
+    if (!back.error.empty())
+      reverse->impl_->search_optima.clear();
+    return reverse->impl_->search_optima;
+  }
 };
 
 RegistrationCore::RegistrationCore() : impl_(std::make_unique<Impl>()) {}
@@ -540,29 +568,16 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   const int reverse_left = max_iterations - result.iterations;
   if (!result.verification.reason.empty() && p.search.reverse_search && reverse_left > 0) {
     core::StageClock clock;
-    if (!impl_->reverse) {
-      impl_->reverse = std::make_unique<RegistrationCore>();
-      impl_->reverse->impl_->stop_after_search = true;
-    }
-    RegistrationCore& reverse = *impl_->reverse;
-    Parameters reverse_parameters = p; // the resolution in use, not one derived from the source
-    reverse_parameters.search.reverse_search = false;
-    reverse.setParameters(reverse_parameters);
-    reverse.setTarget(problem.sourceInput());
-    reverse.setSource(problem.targetInput());
-    const AlignmentResult back = reverse.align(guess.inverse(), reverse_left);
-    result.reverse_search = true;
-    result.iterations += back.iterations;
-    result.evaluations += back.evaluations;
+    const int evaluations_before = result.evaluations;
     Eigen::Matrix4d kept_pose;
-    if (back.error.empty())
-      for (const FoundOptimum& optimum : reverse.impl_->search_optima)
-        if (takeIfAgreesBetter(problem, space, optimum.pose.inverse(), optimum.converged, true,
-                               impl_->scratch, result, finest_normalized_mi)) {
-          result.reverse_kept = true;
-          kept_pose = optimum.pose.inverse();
-        }
-    clock.end(result.stages, "reverse search", back.evaluations);
+    for (const FoundOptimum& optimum :
+         impl_->reverseSearchOptima(p, guess, reverse_left, result))
+      if (takeIfAgreesBetter(problem, space, optimum.pose.inverse(), optimum.converged, true,
+                             impl_->scratch, result, finest_normalized_mi)) {
+        result.reverse_kept = true;
+        kept_pose = optimum.pose.inverse();
+      }
+    clock.end(result.stages, "reverse search", result.evaluations - evaluations_before);
     // A kept optimum whose search was capped is finished in this direction's search, as a
     // kept runner-up is, where the cap leaves room.
     const int left_after = max_iterations - result.iterations;
