@@ -5,6 +5,9 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+#include <cmath>
+
 namespace pcl_mi {
 namespace core {
 
@@ -15,6 +18,13 @@ rotationFromRollPitchYaw(double roll, double pitch, double yaw)
           Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
           Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
       .toRotationMatrix();
+}
+
+Eigen::Vector3d
+rollPitchYawFromRotation(const Eigen::Matrix3d& r)
+{
+  return {std::atan2(r(2, 1), r(2, 2)), std::asin(std::clamp(-r(2, 0), -1.0, 1.0)),
+          std::atan2(r(1, 0), r(0, 0))};
 }
 
 Eigen::Matrix4d

@@ -15,6 +15,11 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 Eigen::Matrix3d
 rotationFromRollPitchYaw(double roll, double pitch, double yaw);
 
+/** \brief (roll, pitch, yaw) of \a r, the inverse of rotationFromRollPitchYaw() for pitch
+ * within +-90 degrees. */
+Eigen::Vector3d
+rollPitchYawFromRotation(const Eigen::Matrix3d& r);
+
 /** \brief Source-to-target transformation for search parameters
  * x = [tx, ty, tz, roll, pitch, yaw] relative to \a guess:
  *

@@ -571,12 +571,14 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     const int evaluations_before = result.evaluations;
     Eigen::Matrix4d kept_pose;
     for (const FoundOptimum& optimum :
-         impl_->reverseSearchOptima(p, guess, reverse_left, result))
-      if (takeIfAgreesBetter(problem, space, optimum.pose.inverse(), optimum.converged, true,
-                             impl_->scratch, result, finest_normalized_mi)) {
+         impl_->reverseSearchOptima(p, guess, reverse_left, result)) {
+      const Eigen::Matrix4d pose = optimum.pose.inverse(); // source onto target
+      if (takeIfAgreesBetter(problem, space, pose, optimum.converged, true, impl_->scratch,
+                             result, finest_normalized_mi)) {
         result.reverse_kept = true;
-        kept_pose = optimum.pose.inverse();
+        kept_pose = pose;
       }
+    }
     clock.end(result.stages, "reverse search", result.evaluations - evaluations_before);
     // A kept optimum whose search was capped is finished in this direction's search, as a
     // kept runner-up is, where the cap leaves room.

@@ -55,12 +55,9 @@ SearchSpace::vector(const Eigen::Matrix4d& pose) const
   const Eigen::Matrix4d move = pose * guess_.inverse();
   const Eigen::Matrix3d a = axes_ ? *axes_ : Eigen::Matrix3d::Identity();
   const Eigen::Matrix3d r = move.topLeftCorner<3, 3>();
-  const Eigen::Matrix3d local = a.transpose() * r * a; // Rz(yaw) * Ry(pitch) * Rx(roll)
   Vector6d full;
   full.head<3>() = a.transpose() * (move.topRightCorner<3, 1>() - pivot_ + r * pivot_);
-  full[3] = std::atan2(local(2, 1), local(2, 2));
-  full[4] = std::asin(std::clamp(-local(2, 0), -1.0, 1.0));
-  full[5] = std::atan2(local(1, 0), local(0, 0));
+  full.tail<3>() = rollPitchYawFromRotation(a.transpose() * r * a);
   Eigen::VectorXd x(static_cast<Eigen::Index>(active_.size()));
   for (std::size_t i = 0; i < active_.size(); ++i)
     x[static_cast<Eigen::Index>(i)] = full[active_[i]];
