@@ -833,6 +833,40 @@ TEST(Registration, AReverseSearchFindsThePoseThisDirectionsSearchMisses)
   EXPECT_GT((estimate.topRightCorner<3, 1>() - reference.topRightCorner<3, 1>()).norm(), 1.0);
 }
 
+// The reverse search keeps its prepared clouds between alignments and takes only the ones
+// that changed: after an alignment against another place (which the verdict does not trust,
+// so the reverse search runs), the object aligns the source set next exactly as a new
+// object does.
+TEST(Registration, TheReverseSearchTakesTheSourceSetSinceItsLastRun)
+{
+  Cloud::Ptr source, target, elsewhere, unused;
+  Eigen::Matrix4d reference, unused_reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_quickshack", source, target, reference, 1));
+  ASSERT_NO_FATAL_FAILURE(
+      loadBundledPair("livox_avia_hku1", elsewhere, unused, unused_reference, 1));
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reused;
+  reused.setInputTarget(target);
+  reused.setInputSource(elsewhere);
+  Cloud aligned;
+  reused.align(aligned);
+  EXPECT_FALSE(reused.hasConverged());
+  ASSERT_TRUE(reused.getLastResult().reverse_search);
+  reused.setInputSource(source);
+  reused.align(aligned);
+
+  pcl::MutualInformationRegistration<pcl::PointXYZ> fresh;
+  fresh.setInputTarget(target);
+  fresh.setInputSource(source);
+  fresh.align(aligned);
+  ASSERT_TRUE(fresh.getLastResult().reverse_search);
+  EXPECT_TRUE(fresh.hasConverged()) << fresh.getLastError();
+  EXPECT_SAMPLE_POSE_NEAR(fresh.getFinalTransformation().cast<double>(), reference);
+  EXPECT_EQ(reused.hasConverged(), fresh.hasConverged());
+  EXPECT_EQ(reused.getNumberOfEvaluations(), fresh.getNumberOfEvaluations());
+  EXPECT_TRUE(reused.getFinalTransformation() == fresh.getFinalTransformation())
+      << reused.getFinalTransformation() << "\n" << fresh.getFinalTransformation();
+}
+
 // The same Livox walk, 6.0 m and 32 deg between the scans, in both directions: searched on
 // MI alone, the coarsest grid (2 m voxels over 4-5 thousand points) scores a wrong pose with
 // more overlap above the right one, which the verification does not trust (before runners-up

@@ -126,6 +126,7 @@ PreparedProblem::setTarget(PointList points)
 {
   target_input_ = std::move(points);
   has_target_ = true;
+  ++target_revision_;
   target_dirty_ = true;
   if (requested_.grid.resolution == 0.0) {
     derived_resolution_ = deriveResolution(target_input_);
@@ -138,6 +139,7 @@ PreparedProblem::setSource(PointList points)
 {
   source_input_ = std::move(points);
   has_source_ = true;
+  ++source_revision_;
   source_dirty_ = true;
 }
 
@@ -391,13 +393,16 @@ void
 PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks, bool estimate_up)
 {
   // The distributions also serve the verification, which runs with or without a refinement.
-  tasks.emplace_back([this, estimate_up] {
-    const SourceSamples cubes =
-        makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
-    distributions_ = makeDistributions(cubes, finestRefinementMinimumPoints(cubes));
-    if (estimate_up)
-      target_up_ = estimateUpDirection(cubes);
-  });
+  // A search-only problem builds their cubes for the up direction alone.
+  if (!search_only_ || estimate_up)
+    tasks.emplace_back([this, estimate_up] {
+      const SourceSamples cubes =
+          makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
+      if (!search_only_)
+        distributions_ = makeDistributions(cubes, finestRefinementMinimumPoints(cubes));
+      if (estimate_up)
+        target_up_ = estimateUpDirection(cubes);
+    });
   for (int l = 0; l < static_cast<int>(levels_.size()); ++l)
     tasks.emplace_back([this, l] { buildGrid(l); });
 }

@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -58,6 +59,27 @@ public:
   setTarget(PointList points);
   void
   setSource(PointList points);
+  /** \brief How many times setTarget() and setSource() were called: a copy of a cloud taken
+   * at one count is still the cloud while the count stays. */
+  std::uint64_t
+  targetRevision() const
+  {
+    return target_revision_;
+  }
+  std::uint64_t
+  sourceRevision() const
+  {
+    return source_revision_;
+  }
+  /** \brief With \a search_only, prepare() builds only what a search needs: the refinement's
+   * distributions, which serve the refinement and the verdict, are left out (distributions()
+   * must not be called then). */
+  void
+  setSearchOnly(bool search_only)
+  {
+    target_dirty_ = target_dirty_ || search_only != search_only_;
+    search_only_ = search_only;
+  }
   /** \brief The clouds as set, before any preparation. */
   const PointList&
   targetInput() const
@@ -233,6 +255,8 @@ private:
   double derived_resolution_ = 0.0;
   PointList target_input_, source_input_;
   bool has_target_ = false, has_source_ = false;
+  std::uint64_t target_revision_ = 0, source_revision_ = 0;
+  bool search_only_ = false;
   bool target_dirty_ = true, source_dirty_ = true;
   LocalCloud target_, source_;
   std::string target_warning_, source_warning_;

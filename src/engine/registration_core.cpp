@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <iomanip>
 #include <optional>
 #include <sstream>
@@ -360,8 +361,11 @@ struct RegistrationCore::Impl {
    * the runners-up in search_optima. */
   bool stop_after_search = false;
   std::vector<FoundOptimum> search_optima;
-  /** The reverse search's core, made on first use and kept with its backends and buffers. */
+  /** The reverse search's core, made on first use and kept with its backends, buffers and
+   * prepared clouds; the revisions of this problem's clouds it holds (its source is this
+   * target). */
   std::unique_ptr<RegistrationCore> reverse;
+  std::uint64_t reverse_target_revision = 0, reverse_source_revision = 0;
 
   /** Searches the target onto the source from the inverse of \a guess, with \a parameters
    * (those in use, so that the source's extent derives nothing) on at most
@@ -376,12 +380,21 @@ struct RegistrationCore::Impl {
     if (!reverse) {
       reverse = std::make_unique<RegistrationCore>();
       reverse->impl_->stop_after_search = true;
+      reverse->impl_->problem.setSearchOnly(true);
     }
     Parameters reverse_parameters = parameters;
     reverse_parameters.search.reverse_search = false;
     reverse->setParameters(reverse_parameters);
-    reverse->setTarget(problem.sourceInput());
-    reverse->setSource(problem.targetInput());
+    // Only a cloud that changed is handed over again, so that a reused target (a map) is not
+    // prepared anew as the reverse source at every untrusted alignment. Revisions start at 1.
+    if (reverse_target_revision != problem.sourceRevision()) {
+      reverse->setTarget(problem.sourceInput());
+      reverse_target_revision = problem.sourceRevision();
+    }
+    if (reverse_source_revision != problem.targetRevision()) {
+      reverse->setSource(problem.targetInput());
+      reverse_source_revision = problem.targetRevision();
+    }
     const AlignmentResult back = reverse->align(guess.inverse(), max_iterations);
     result.reverse_search = true;
     result.iterations += back.iterations;
