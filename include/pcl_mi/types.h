@@ -120,8 +120,9 @@ struct Verification {
   /** The matching unit eigenvectors (columns) in the scaled increments. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> observability_directions =
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Identity();
-  /** Share of the inliers lost by moving the result one voxel either way along each of the
-   * two least observable directions; below 0.05 the direction counts as free (degenerate). */
+  /** Share of the inliers lost by moving the result either way along each of the two least
+   * observable directions, so far that the samples move one voxel (root mean square); below
+   * 0.05 the direction counts as free (degenerate). */
   double free_direction_contrast[2] = {0.0, 0.0};
   /** Narrow fields of view only, NaN otherwise: how far the MI on the finest grid of the
    * result's optimum in translation leads the highest other optimum found within six voxels

@@ -139,6 +139,20 @@ public:
     return 0.5 * lost;
   }
 
+  /** \brief Root mean square distance by which the left increment [omega, delta] moves the
+   * probed samples, to first order. */
+  double
+  rmsShift(const Eigen::Vector3d& omega, const Eigen::Vector3d& delta) const
+  {
+    double sum = 0.0;
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < source_.samples.size(); i += stride_, ++count) {
+      const Eigen::Vector3d q = rotation_ * source_.samples[i].position.cast<double>() + translation_;
+      sum += (omega.cross(q) + delta).squaredNorm();
+    }
+    return count ? std::sqrt(sum / static_cast<double>(count)) : 0.0;
+  }
+
   /** \brief The same for turns by +-\a angle about the axis \a axis through the source's
    * centroid, which sits at the translation in the target local frame. */
   double
@@ -302,11 +316,18 @@ verifyPose(const TargetDistributions& target,
   v.normalized_mi = floor_entropy > 0.0 ? h.mutualInformation() / floor_entropy : 0.0;
 
   planeInformation(at, radius, target_centroid, target_axes, v);
-  // The two least observable directions ([t, omega * radius]), moved one voxel either way.
+  // The two least observable directions ([t, omega * radius]), moved either way so far that
+  // the samples move one voxel (root mean square). A turn scaled at the RMS radius moves a
+  // narrow view's samples much less than that about its axis of view, which left such turns
+  // looking free where the surfaces hold them (docs/benchmarks.md, "Free directions moved a
+  // voxel"); a turn about a tunnel's axis moves its samples along its surface, any distance.
   parallelFor(2, num_threads, [&](int k) {
     const Eigen::Matrix<double, 6, 1> direction = v.observability_directions.col(k);
-    v.free_direction_contrast[k] = probe.lostEitherWay(resolution * direction.tail<3>() / radius,
-                                                       resolution * direction.head<3>());
+    const Eigen::Vector3d omega = direction.tail<3>() / radius;
+    const Eigen::Vector3d delta = direction.head<3>();
+    const double shift = probe.rmsShift(omega, delta);
+    const double step = shift > 0.0 ? resolution / shift : resolution;
+    v.free_direction_contrast[k] = probe.lostEitherWay(step * omega, step * delta);
   });
   // Reported in the input frame: [delta, omega * radius] turn alike.
   v.observability_directions.topRows<3>() = target_axes * v.observability_directions.topRows<3>();
