@@ -5,17 +5,16 @@
  */
 #include <pcl_mi/registration_core.h>
 
+#include "engine/candidates.h"
 #include "engine/input_checks.h"
 #include "engine/leveled_guess.h"
+#include "engine/mutual_information_costs.h"
 #include "engine/prepared_problem.h"
-#include "engine/refine_optimum.h"
 #include "engine/search_space.h"
-#include "engine/second_optimum.h"
 #include "engine/shifted_optimum.h"
 #include "features/mutual_information.h"
 #include "search/coarse_to_fine.h"
 #include "util/stage_clock.h"
-#include "verify/verification.h"
 #ifdef PCL_MI_WITH_OPENCL
 #include "backend/opencl_backend.h"
 #endif
@@ -25,7 +24,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <iomanip>
 #include <optional>
 #include <sstream>
 
@@ -48,177 +46,6 @@ constexpr double kSecondSearchTiltStep = 0.35;
  * the first search at the guess, a whole motion short of the true pose. */
 constexpr int kSecondSearchPositionStarts = 2;
 
-/** The search's cost: minus the MI of the pose a search vector stands for, or minus its
- * normalised MI on \a normalized_level (-1: none). */
-class MutualInformationCosts final : public core::LevelCosts {
-public:
-  MutualInformationCosts(core::PreparedProblem& problem,
-                         const core::SearchSpace& space,
-                         int normalized_level)
-  : problem_(problem),
-    space_(space),
-    normalized_level_(normalized_level),
-    prefers_batches_(problem.prefersBatches())
-  {}
-
-  int
-  levels() const override
-  {
-    return problem_.levels();
-  }
-
-  double
-  resolution(int level) const override
-  {
-    return problem_.levelResolution(level);
-  }
-
-  double
-  cost(int level, int slot, const Eigen::VectorXd& x) override
-  {
-    JointHistogram& histogram = histograms_[slot];
-    problem_.jointHistogram(space_.pose(x), histogram, level, slot);
-    return -score(level, histogram);
-  }
-
-  void
-  costs(int level, int slot, const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values)
-      override
-  {
-    if (!prefers_batches_) {
-      core::LevelCosts::costs(level, slot, xs, values);
-      return;
-    }
-    std::vector<Eigen::Matrix4d> poses;
-    poses.reserve(xs.size());
-    for (const Eigen::VectorXd& x : xs)
-      poses.push_back(space_.pose(x));
-    std::vector<JointHistogram>& histograms = batch_histograms_[slot];
-    problem_.jointHistograms(poses, histograms, level, slot);
-    values.resize(histograms.size());
-    for (std::size_t i = 0; i < histograms.size(); ++i)
-      values[i] = -score(level, histograms[i]);
-  }
-
-  bool
-  prefersBatches() const override
-  {
-    return prefers_batches_;
-  }
-
-private:
-  double
-  score(int level, const JointHistogram& histogram) const
-  {
-    if (histogram.overlap_voxels == 0)
-      return 0.0;
-    return level == normalized_level_ ? core::normalizedMutualInformation(histogram)
-                                      : core::mutualInformation(histogram);
-  }
-
-  core::PreparedProblem& problem_;
-  const core::SearchSpace& space_;
-  int normalized_level_;
-  bool prefers_batches_;
-  // One per slot: the two may run concurrently.
-  JointHistogram histograms_[2];
-  std::vector<JointHistogram> batch_histograms_[2];
-};
-
-/** Takes the trust from \a result, which passed the reliability test, where a pose a few
- * voxels along its least constrained direction scores a higher MI on the finest grid
- * (core::higherAlongLeastConstrained()). */
-void
-refuseASecondOptimum(core::PreparedProblem& problem, AlignmentResult& result)
-{
-  core::StageClock clock;
-  const std::optional<Eigen::Matrix4d> higher = core::higherAlongLeastConstrained(
-      problem, result.transformation, result.mutual_information, result.verification.covariance);
-  clock.end(result.stages, "second optimum", core::kSecondOptimumProbes);
-  if (!higher)
-    return;
-  const Eigen::Vector3d shift =
-      higher->topRightCorner<3, 1>() - result.transformation.topRightCorner<3, 1>();
-  std::ostringstream reason;
-  reason << std::fixed << std::setprecision(2) << "a second optimum: the pose moved by ("
-         << shift.x() << ", " << shift.y() << ", " << shift.z()
-         << "), along the direction the surfaces constrain least, scores a higher MI";
-  result.verification.reason = reason.str();
-  result.converged = false;
-}
-
-/** Judges \a result again with \a lead, its optimum's lead over the others nearby
- * (Verification::lead). A result whose evidence passed without it has had the
- * second-optimum test, whose outcome stands while the evidence still passes; one that
- * passes only now takes that test. */
-void
-judgeWithLead(core::PreparedProblem& problem, double lead, AlignmentResult& result)
-{
-  Verification& v = result.verification;
-  Verification without = v;
-  core::judge(without);
-  const std::string previous = v.reason;
-  v.lead = lead;
-  core::judge(v);
-  if (!v.reason.empty()) {
-    result.converged = false;
-    return;
-  }
-  if (without.reason.empty()) {
-    v.reason = previous;
-    result.converged = result.search_converged && previous.empty();
-    return;
-  }
-  result.converged = result.search_converged;
-  if (result.converged)
-    refuseASecondOptimum(problem, result);
-}
-
-/** Refines \a pose and gives it the verdict, into \a result (whose search_converged is
- * set). Returns the normalised MI on the finest grid at the final pose, by which candidates
- * of different overlaps compare (takeIfAgreesBetter()). */
-double
-finishCandidate(core::PreparedProblem& problem,
-                const core::SearchSpace& space,
-                const Eigen::Matrix4d& pose,
-                JointHistogram& scratch,
-                AlignmentResult& result)
-{
-  const Parameters& p = problem.parameters();
-  result.transformation = pose;
-  result.refinement_iterations = 0;
-  result.refinement_stages = 0;
-  if (p.refinement.method == Refinement::PointToDistribution) {
-    core::StageClock refinement_clock;
-    const int coarser_stages = problem.narrowView() ? p.refinement.narrow_view_stages : 0;
-    const core::RefinedOptimum refined =
-        core::refineOptimum(problem, space, result.transformation, coarser_stages);
-    refinement_clock.end(result.stages, "refinement", refined.iterations);
-    if (refined.accepted) {
-      result.refinement_iterations = refined.iterations;
-      result.refinement_stages = 1 + coarser_stages;
-      result.transformation = refined.transformation;
-    }
-  }
-
-  // The verdict: the search's convergence says nothing about whether the optimum is the
-  // true pose; the target's surfaces do.
-  core::StageClock verification_clock;
-  result.mutual_information = problem.mutualInformation(result.transformation, scratch);
-  const double finest_normalized_mi =
-      scratch.overlap_voxels == 0 ? 0.0 : core::normalizedMutualInformation(scratch);
-  const core::LocalPose at = problem.toLocal(result.transformation);
-  result.verification = core::verifyPose(
-      problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
-      problem.levelResolution(0), scratch, problem.target().centroid, problem.targetAxes(),
-      p.num_threads);
-  result.converged = result.search_converged && result.verification.reason.empty();
-  verification_clock.end(result.stages, "verification", 1);
-  if (result.converged)
-    refuseASecondOptimum(problem, result);
-  return finest_normalized_mi;
-}
-
 /** Raises the roll and pitch steps of \a options to at least \a step, keeping their signs;
  * a pinned one stays pinned. */
 void
@@ -231,119 +58,108 @@ widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions
   }
 }
 
-/** Makes the refined and verified candidate \a other, whose normalised MI on the finest grid
- * is \a other_normalized_mi, the result: its pose, verdict and refinement, not the counts and
- * stages of the whole alignment. */
-void
-takeCandidate(AlignmentResult&& other,
-              double other_normalized_mi,
-              AlignmentResult& result,
-              double& finest_normalized_mi)
-{
-  finest_normalized_mi = other_normalized_mi;
-  result.transformation = other.transformation;
-  result.converged = other.converged;
-  result.search_converged = other.search_converged;
-  result.refinement_iterations = other.refinement_iterations;
-  result.refinement_stages = other.refinement_stages;
-  result.mutual_information = other.mutual_information;
-  result.verification = std::move(other.verification);
-}
-
-/** Refines and verifies \a pose, whose search's convergence is \a search_converged, and
- * makes it the result where it agrees better with the target: it lies on surfaces the
- * clouds share where the result does not, or, alike in that, it has the higher normalised MI
- * on the finest grid than the result's own, \a finest_normalized_mi (then updated). With
- * \a needs_shared_surface, a candidate that shares too little surface is never taken.
- * Returns true where it was taken. */
-bool
-takeIfAgreesBetter(core::PreparedProblem& problem,
-                   const core::SearchSpace& space,
-                   const Eigen::Matrix4d& pose,
-                   bool search_converged,
-                   bool needs_shared_surface,
-                   JointHistogram& scratch,
-                   AlignmentResult& result,
-                   double& finest_normalized_mi)
-{
-  AlignmentResult other; // its stages are the caller's stage's
-  other.search_converged = search_converged;
-  const double other_normalized_mi = finishCandidate(problem, space, pose, scratch, other);
-  const bool supported = core::sharesSurface(other.verification);
-  if (needs_shared_surface && !supported)
-    return false;
-  const bool better = supported != core::sharesSurface(result.verification)
-                          ? supported
-                          : other_normalized_mi > finest_normalized_mi;
-  if (!better)
-    return false;
-  takeCandidate(std::move(other), other_normalized_mi, result, finest_normalized_mi);
-  return true;
-}
-
-/** Refines and verifies each of \a optima (search vectors with their searches' convergence)
- * and puts the one with the highest normalised MI on the finest grid into \a result where
- * that is higher than the result's own, \a finest_normalized_mi (updated); counts them in
- * result.runners_up_checked. Normalised MI, as on the coarsest level, because the
- * candidates' overlaps differ. A candidate where the clouds share surface beats one where
- * they share too little whatever their MI: the MI of a few voxels at the edge of the
- * overlap can be high by chance, and such a pose aligns nothing. */
-const core::NelderMeadResult*
-keepTheFinestGridsChoice(core::PreparedProblem& problem,
-                         const core::SearchSpace& space,
-                         const std::vector<core::NelderMeadResult>& optima,
-                         JointHistogram& scratch,
-                         AlignmentResult& result,
-                         double& finest_normalized_mi)
-{
-  const core::NelderMeadResult* kept = nullptr;
-  for (const core::NelderMeadResult& optimum : optima) {
-    ++result.runners_up_checked;
-    if (takeIfAgreesBetter(problem, space, space.pose(optimum.x), optimum.converged, false,
-                           scratch, result, finest_normalized_mi)) {
-      result.runner_up_kept = true;
-      kept = &optimum;
-    }
-  }
-  return kept;
-}
-
-/** Finishes the search of the runner-up \a result holds, which stopped at \a from (its
- * search vector) at a candidate's share of the iteration cap, on at most \a left
- * iterations: from where it got,
- * as the search finishes a capped candidate that wins. The finished optimum is refined and
- * verified, and stands where it lies on surface the clouds share and the finest grid's
- * normalised MI prefers it at least as much. */
-void
-finishTheKeptRunnerUp(core::PreparedProblem& problem,
-                      const core::SearchSpace& space,
-                      MutualInformationCosts& costs,
-                      const core::CoarseToFineOptions& options,
-                      const Eigen::VectorXd& from,
-                      int left,
-                      JointHistogram& scratch,
-                      AlignmentResult& result,
-                      double& finest_normalized_mi)
-{
-  core::StageClock clock;
-  const core::NelderMeadResult finished = core::finishOnFirstLevel(costs, options, from, left);
-  result.iterations += finished.iterations;
-  result.evaluations += finished.evaluations;
-  AlignmentResult other; // its stages are this stage's
-  other.search_converged = finished.converged;
-  const double other_normalized_mi =
-      finishCandidate(problem, space, space.pose(finished.x), scratch, other);
-  if (core::sharesSurface(other.verification) && other_normalized_mi >= finest_normalized_mi)
-    takeCandidate(std::move(other), other_normalized_mi, result, finest_normalized_mi);
-  clock.end(result.stages, "runner-up finished", finished.evaluations);
-}
-
 /** The up direction of the target's input frame: the one its surfaces show, else z. */
 Eigen::Vector3d
 targetUpInInput(const core::PreparedProblem& problem)
 {
   return problem.targetUp() ? Eigen::Vector3d(problem.targetAxes() * *problem.targetUp())
                             : Eigen::Vector3d::UnitZ();
+}
+
+/** The first search's options: the parameters' steps and starts on \a space, capped at
+ * \a max_iterations; a narrow view's wider tilt steps (where \a tilts), turned starts and
+ * scanned turns. */
+core::CoarseToFineOptions
+firstSearchOptions(const core::PreparedProblem& problem,
+                   const core::SearchSpace& space,
+                   const Eigen::Matrix4d& guess,
+                   bool tilts,
+                   int max_iterations)
+{
+  const Parameters& p = problem.parameters();
+  const bool narrow_view = problem.narrowView();
+  core::CoarseToFineOptions options = space.searchOptions(p);
+  options.first_level = problem.firstSearchedLevel();
+  options.max_iterations = max_iterations;
+  options.position_starts =
+      options.x_index >= 0 || options.y_index >= 0
+          ? std::max(p.search.position_starts,
+                     narrow_view ? p.search.narrow_view_position_starts : 0)
+          : 0;
+  if (tilts)
+    widenTilt(space, p.search.narrow_view_tilt_step, options);
+  if (narrow_view && p.search.narrow_view_yaw_start > 0.0)
+    options.yaw_starts = {p.search.narrow_view_yaw_start, -p.search.narrow_view_yaw_start};
+  if (narrow_view) {
+    options.scanned_starts = p.search.narrow_view_scanned_starts;
+    // The scanned turns also look for roll, unless the clouds show that the sensor kept its
+    // up: on a car's narrow view, turns in roll that score well on the coarse grid only
+    // displace the right ones (docs/benchmarks.md, "Scanned turns in roll").
+    options.scan_roll = !core::guessKeepsUp(problem.sourceUp(), problem.targetUp(), guess);
+  }
+  return options;
+}
+
+/** A 360-degree pair's second search, wider than the first (\a options): more headings,
+ * the tilt steps of a handheld sensor and starts along x, on what the cap
+ * (\a max_iterations) leaves. Its optima are judged as runners-up are. */
+void
+searchWider(core::PreparedProblem& problem,
+            const core::SearchSpace& space,
+            core::LevelCosts& costs,
+            const core::CoarseToFineOptions& options,
+            int max_iterations,
+            JointHistogram& scratch,
+            AlignmentResult& result,
+            double& finest_normalized_mi)
+{
+  const int left = max_iterations - result.iterations;
+  if (left <= 0)
+    return;
+  core::StageClock clock;
+  core::CoarseToFineOptions wide = options;
+  wide.max_iterations = left;
+  if (wide.yaw_index >= 0)
+    wide.heading_starts =
+        std::max(wide.heading_starts, problem.parameters().search.second_search_headings);
+  widenTilt(space, kSecondSearchTiltStep, wide);
+  if (wide.x_index >= 0 || wide.y_index >= 0)
+    wide.position_starts = std::max(wide.position_starts, kSecondSearchPositionStarts);
+  const core::CoarseToFineResult again = core::searchCoarseToFine(costs, wide);
+  result.second_search = true;
+  result.iterations += again.iterations;
+  result.evaluations += again.evaluations;
+  std::vector<core::NelderMeadResult> optima{again.best};
+  optima.insert(optima.end(), again.alternatives.begin(), again.alternatives.end());
+  core::keepTheFinestGridsChoice(problem, space, optima, scratch, result, finest_normalized_mi);
+  clock.end(result.stages, "second search", again.evaluations);
+}
+
+/** A narrow view of a repeating facade: the coarser grids the search ranks on cannot tell
+ * optima a bay apart, the finest grid can (docs/method.md). Takes a higher optimum found
+ * across where it agrees better, and judges the result again with its lead. */
+void
+lookAcross(core::PreparedProblem& problem,
+           const core::SearchSpace& space,
+           JointHistogram& scratch,
+           AlignmentResult& result,
+           double& finest_normalized_mi)
+{
+  core::StageClock clock;
+  int evaluations = 0;
+  const core::ShiftedOptima shifted =
+      core::shiftedOptima(problem, result.transformation, targetUpInInput(problem),
+                          problem.parameters().num_threads, evaluations);
+  // Judged as a runner-up is, and on shared surface only: between two places, a shift to
+  // the edge of the overlap can raise the MI of the few voxels left there.
+  const std::optional<core::ShiftedOptimum>& higher = shifted.higher;
+  if (higher && core::takeIfAgreesBetter(problem, space, higher->pose, higher->converged, true,
+                                         scratch, result, finest_normalized_mi))
+    result.shifted_optimum_kept = true;
+  // How far the result's optimum leads the others nearby is evidence for the verdict.
+  core::judgeWithLead(problem, result.shifted_optimum_kept ? higher->lead : shifted.lead, result);
+  result.evaluations += evaluations;
+  clock.end(result.stages, "shifted optima", evaluations);
 }
 
 /** A search's optimum as a pose, with whether its search converged. */
@@ -402,6 +218,43 @@ struct RegistrationCore::Impl {
     if (!back.error.empty())
       reverse->impl_->search_optima.clear();
     return reverse->impl_->search_optima;
+  }
+
+  /** The target searched onto the source, on what the cap (\a max_iterations) leaves. The
+   * cost samples one cloud and bins the other, so the reverse is another problem, and on
+   * sparse, narrow views its search often finds the pose where this one missed it
+   * (docs/benchmarks.md, "The reverse search"). Its optima, inverted, are judged as
+   * runners-up are, on shared surface only; a kept one whose search was capped is finished
+   * in this direction's search (\a costs, \a options), as a kept runner-up is. */
+  void
+  judgeTheReverseOptima(const core::SearchSpace& space,
+                        core::LevelCosts& costs,
+                        const core::CoarseToFineOptions& options,
+                        const Eigen::Matrix4d& guess,
+                        int max_iterations,
+                        AlignmentResult& result,
+                        double& finest_normalized_mi)
+  {
+    const int left = max_iterations - result.iterations;
+    if (left <= 0)
+      return;
+    core::StageClock clock;
+    const int evaluations_before = result.evaluations;
+    Eigen::Matrix4d kept_pose;
+    for (const FoundOptimum& optimum :
+         reverseSearchOptima(problem.parameters(), guess, left, result)) {
+      const Eigen::Matrix4d pose = optimum.pose.inverse(); // source onto target
+      if (core::takeIfAgreesBetter(problem, space, pose, optimum.converged, true, scratch, result,
+                                   finest_normalized_mi)) {
+        result.reverse_kept = true;
+        kept_pose = pose;
+      }
+    }
+    clock.end(result.stages, "reverse search", result.evaluations - evaluations_before);
+    const int left_after = max_iterations - result.iterations;
+    if (result.reverse_kept && !result.search_converged && left_after > 0)
+      core::finishTheKeptRunnerUp(problem, space, costs, options, space.vector(kept_pose),
+                                  left_after, scratch, result, finest_normalized_mi);
   }
 };
 
@@ -488,31 +341,16 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
       core::levelingApplies(p) && !narrow_view
           ? core::levelGuess(problem.sourceUp(), problem.targetUp(), guess, pivot)
           : std::nullopt;
-  const core::SearchSpace space = leveled ? core::SearchSpace(p, leveled->guess, pivot, leveled->axes)
-                                          : core::SearchSpace(p, guess, pivot);
-  core::CoarseToFineOptions options = space.searchOptions(p);
-  options.first_level = problem.firstSearchedLevel();
-  options.max_iterations = max_iterations;
-  options.position_starts =
-      options.x_index >= 0 || options.y_index >= 0
-          ? std::max(p.search.position_starts,
-                     narrow_view ? p.search.narrow_view_position_starts : 0)
-          : 0;
-  if (tilts)
-    widenTilt(space, p.search.narrow_view_tilt_step, options);
-  if (narrow_view && p.search.narrow_view_yaw_start > 0.0)
-    options.yaw_starts = {p.search.narrow_view_yaw_start, -p.search.narrow_view_yaw_start};
-  if (narrow_view) {
-    options.scanned_starts = p.search.narrow_view_scanned_starts;
-    // The scanned turns also look for roll, unless the clouds show that the sensor kept its
-    // up: on a car's narrow view, turns in roll that score well on the coarse grid only
-    // displace the right ones (docs/benchmarks.md, "Scanned turns in roll").
-    options.scan_roll = !core::guessKeepsUp(problem.sourceUp(), problem.targetUp(), guess);
-  }
+  const core::SearchSpace space = leveled
+                                      ? core::SearchSpace(p, leveled->guess, pivot, leveled->axes)
+                                      : core::SearchSpace(p, guess, pivot);
+  const core::CoarseToFineOptions options =
+      firstSearchOptions(problem, space, guess, tilts, max_iterations);
   // Normalised MI on the coarsest level only where finer levels follow it.
   const int coarsest = problem.levels() - 1;
-  MutualInformationCosts costs(
-      problem, space, p.search.coarse_normalized_mi && coarsest > options.first_level ? coarsest : -1);
+  core::MutualInformationCosts costs(
+      problem, space,
+      p.search.coarse_normalized_mi && coarsest > options.first_level ? coarsest : -1);
   const core::CoarseToFineResult found = core::searchCoarseToFine(costs, options);
   // The first search stage also timed the overlap check at the guess.
   result.stages.insert(result.stages.end(), found.stages.begin(), found.stages.end());
@@ -532,93 +370,30 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     return result;
   }
   double finest_normalized_mi =
-      finishCandidate(problem, space, space.pose(found.best.x), impl_->scratch, result);
+      core::finishCandidate(problem, space, space.pose(found.best.x), impl_->scratch, result);
 
-  // A second opinion: where the verification does not trust the search's best optimum, the
-  // runners-up are refined and verified too, and the one that agrees best with the target
-  // on the finest grid is kept, its capped search then finished. On sparse, narrow views the
-  // coarser grids the search ranks on often put a wrong optimum first where the finest grid
-  // does not (docs/method.md).
+  // Second opinions, each only while the result is not trusted and the cap leaves room.
+  // First the search's runners-up: on sparse, narrow views the coarser grids the search ranks
+  // on often put a wrong optimum first where the finest grid does not (docs/method.md).
   if (!result.verification.reason.empty() && !found.alternatives.empty()) {
     core::StageClock clock;
-    const core::NelderMeadResult* kept = keepTheFinestGridsChoice(
+    const core::NelderMeadResult* kept = core::keepTheFinestGridsChoice(
         problem, space, found.alternatives, impl_->scratch, result, finest_normalized_mi);
     clock.end(result.stages, "runners-up", result.runners_up_checked);
     const int left = max_iterations - result.iterations;
     if (kept && !result.search_converged && left > 0)
-      finishTheKeptRunnerUp(problem, space, costs, options, kept->x, left, impl_->scratch, result,
-                            finest_normalized_mi);
+      core::finishTheKeptRunnerUp(problem, space, costs, options, kept->x, left, impl_->scratch,
+                                  result, finest_normalized_mi);
   }
-
-  // Still not trusted, a 360-degree pair gets a wider second search: more headings, tilt
-  // steps of a handheld sensor, and starts along x. A narrow view's first search is that
-  // wide already.
-  const int left = max_iterations - result.iterations;
-  if (!result.verification.reason.empty() && !narrow_view &&
-      p.search.second_search_headings > 0 && left > 0) {
-    core::StageClock clock;
-    core::CoarseToFineOptions wide = options;
-    wide.max_iterations = left;
-    if (wide.yaw_index >= 0)
-      wide.heading_starts = std::max(wide.heading_starts, p.search.second_search_headings);
-    widenTilt(space, kSecondSearchTiltStep, wide);
-    if (wide.x_index >= 0 || wide.y_index >= 0)
-      wide.position_starts = std::max(wide.position_starts, kSecondSearchPositionStarts);
-    const core::CoarseToFineResult again = core::searchCoarseToFine(costs, wide);
-    result.second_search = true;
-    result.iterations += again.iterations;
-    result.evaluations += again.evaluations;
-    std::vector<core::NelderMeadResult> optima{again.best};
-    optima.insert(optima.end(), again.alternatives.begin(), again.alternatives.end());
-    keepTheFinestGridsChoice(problem, space, optima, impl_->scratch, result, finest_normalized_mi);
-    clock.end(result.stages, "second search", again.evaluations);
-  }
-
-  // Still not trusted: the target searched onto the source. The cost samples one cloud and
-  // bins the other, so the reverse is another problem, and on sparse, narrow views its
-  // search often finds the pose where this one missed it (docs/benchmarks.md, "The reverse
-  // search"). Its optima, inverted, are judged here as runners-up are, on shared surface only.
-  const int reverse_left = max_iterations - result.iterations;
-  if (!result.verification.reason.empty() && p.search.reverse_search && reverse_left > 0) {
-    core::StageClock clock;
-    const int evaluations_before = result.evaluations;
-    Eigen::Matrix4d kept_pose;
-    for (const FoundOptimum& optimum :
-         impl_->reverseSearchOptima(p, guess, reverse_left, result)) {
-      const Eigen::Matrix4d pose = optimum.pose.inverse(); // source onto target
-      if (takeIfAgreesBetter(problem, space, pose, optimum.converged, true, impl_->scratch,
-                             result, finest_normalized_mi)) {
-        result.reverse_kept = true;
-        kept_pose = pose;
-      }
-    }
-    clock.end(result.stages, "reverse search", result.evaluations - evaluations_before);
-    // A kept optimum whose search was capped is finished in this direction's search, as a
-    // kept runner-up is, where the cap leaves room.
-    const int left_after = max_iterations - result.iterations;
-    if (result.reverse_kept && !result.search_converged && left_after > 0)
-      finishTheKeptRunnerUp(problem, space, costs, options, space.vector(kept_pose), left_after,
-                            impl_->scratch, result, finest_normalized_mi);
-  }
-
-  // A narrow view of a repeating facade: the coarser grids the search ranks on cannot tell
-  // optima a bay apart, the finest grid can (docs/method.md).
-  if (narrow_view) {
-    core::StageClock clock;
-    int evaluations = 0;
-    const core::ShiftedOptima shifted = core::shiftedOptima(
-        problem, result.transformation, targetUpInInput(problem), p.num_threads, evaluations);
-    // Judged as a runner-up is, and on shared surface only: between two places, a shift to
-    // the edge of the overlap can raise the MI of the few voxels left there.
-    const std::optional<core::ShiftedOptimum>& higher = shifted.higher;
-    if (higher && takeIfAgreesBetter(problem, space, higher->pose, higher->converged, true,
-                                     impl_->scratch, result, finest_normalized_mi))
-      result.shifted_optimum_kept = true;
-    // How far the result's optimum leads the others nearby is evidence for the verdict.
-    judgeWithLead(problem, result.shifted_optimum_kept ? higher->lead : shifted.lead, result);
-    result.evaluations += evaluations;
-    clock.end(result.stages, "shifted optima", evaluations);
-  }
+  // A narrow view's first search is as wide as the second one already.
+  if (!result.verification.reason.empty() && !narrow_view && p.search.second_search_headings > 0)
+    searchWider(problem, space, costs, options, max_iterations, impl_->scratch, result,
+                finest_normalized_mi);
+  if (!result.verification.reason.empty() && p.search.reverse_search)
+    impl_->judgeTheReverseOptima(space, costs, options, guess, max_iterations, result,
+                                 finest_normalized_mi);
+  if (narrow_view)
+    lookAcross(problem, space, impl_->scratch, result, finest_normalized_mi);
   return result;
 }
 

@@ -1,0 +1,201 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "engine/candidates.h"
+
+#include "engine/refine_optimum.h"
+#include "engine/second_optimum.h"
+#include "features/mutual_information.h"
+#include "util/stage_clock.h"
+#include "verify/verification.h"
+
+#include <iomanip>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <utility>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+/** Takes the trust from \a result, which passed the reliability test, where a pose a few
+ * voxels along its least constrained direction scores a higher MI on the finest grid
+ * (higherAlongLeastConstrained()). */
+void
+refuseASecondOptimum(PreparedProblem& problem, AlignmentResult& result)
+{
+  StageClock clock;
+  const std::optional<Eigen::Matrix4d> higher = higherAlongLeastConstrained(
+      problem, result.transformation, result.mutual_information, result.verification.covariance);
+  clock.end(result.stages, "second optimum", kSecondOptimumProbes);
+  if (!higher)
+    return;
+  const Eigen::Vector3d shift =
+      higher->topRightCorner<3, 1>() - result.transformation.topRightCorner<3, 1>();
+  std::ostringstream reason;
+  reason << std::fixed << std::setprecision(2) << "a second optimum: the pose moved by ("
+         << shift.x() << ", " << shift.y() << ", " << shift.z()
+         << "), along the direction the surfaces constrain least, scores a higher MI";
+  result.verification.reason = reason.str();
+  result.converged = false;
+}
+
+/** Makes the refined and verified candidate \a other, whose normalised MI on the finest grid
+ * is \a other_normalized_mi, the result: its pose, verdict and refinement, not the counts and
+ * stages of the whole alignment. */
+void
+takeCandidate(AlignmentResult&& other,
+              double other_normalized_mi,
+              AlignmentResult& result,
+              double& finest_normalized_mi)
+{
+  finest_normalized_mi = other_normalized_mi;
+  result.transformation = other.transformation;
+  result.converged = other.converged;
+  result.search_converged = other.search_converged;
+  result.refinement_iterations = other.refinement_iterations;
+  result.refinement_stages = other.refinement_stages;
+  result.mutual_information = other.mutual_information;
+  result.verification = std::move(other.verification);
+}
+
+} // namespace
+
+double
+finishCandidate(PreparedProblem& problem,
+                const SearchSpace& space,
+                const Eigen::Matrix4d& pose,
+                JointHistogram& scratch,
+                AlignmentResult& result)
+{
+  const Parameters& p = problem.parameters();
+  result.transformation = pose;
+  result.refinement_iterations = 0;
+  result.refinement_stages = 0;
+  if (p.refinement.method == Refinement::PointToDistribution) {
+    StageClock refinement_clock;
+    const int coarser_stages = problem.narrowView() ? p.refinement.narrow_view_stages : 0;
+    const RefinedOptimum refined =
+        refineOptimum(problem, space, result.transformation, coarser_stages);
+    refinement_clock.end(result.stages, "refinement", refined.iterations);
+    if (refined.accepted) {
+      result.refinement_iterations = refined.iterations;
+      result.refinement_stages = 1 + coarser_stages;
+      result.transformation = refined.transformation;
+    }
+  }
+
+  // The verdict: the search's convergence says nothing about whether the optimum is the
+  // true pose; the target's surfaces do.
+  StageClock verification_clock;
+  result.mutual_information = problem.mutualInformation(result.transformation, scratch);
+  const double finest_normalized_mi =
+      scratch.overlap_voxels == 0 ? 0.0 : normalizedMutualInformation(scratch);
+  const LocalPose at = problem.toLocal(result.transformation);
+  result.verification = verifyPose(
+      problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
+      problem.levelResolution(0), scratch, problem.target().centroid, problem.targetAxes(),
+      p.num_threads);
+  result.converged = result.search_converged && result.verification.reason.empty();
+  verification_clock.end(result.stages, "verification", 1);
+  if (result.converged)
+    refuseASecondOptimum(problem, result);
+  return finest_normalized_mi;
+}
+
+bool
+takeIfAgreesBetter(PreparedProblem& problem,
+                   const SearchSpace& space,
+                   const Eigen::Matrix4d& pose,
+                   bool search_converged,
+                   bool needs_shared_surface,
+                   JointHistogram& scratch,
+                   AlignmentResult& result,
+                   double& finest_normalized_mi)
+{
+  AlignmentResult other; // its stages are the caller's stage's
+  other.search_converged = search_converged;
+  const double other_normalized_mi = finishCandidate(problem, space, pose, scratch, other);
+  const bool supported = sharesSurface(other.verification);
+  if (needs_shared_surface && !supported)
+    return false;
+  const bool better = supported != sharesSurface(result.verification)
+                          ? supported
+                          : other_normalized_mi > finest_normalized_mi;
+  if (!better)
+    return false;
+  takeCandidate(std::move(other), other_normalized_mi, result, finest_normalized_mi);
+  return true;
+}
+
+const NelderMeadResult*
+keepTheFinestGridsChoice(PreparedProblem& problem,
+                         const SearchSpace& space,
+                         const std::vector<NelderMeadResult>& optima,
+                         JointHistogram& scratch,
+                         AlignmentResult& result,
+                         double& finest_normalized_mi)
+{
+  const NelderMeadResult* kept = nullptr;
+  for (const NelderMeadResult& optimum : optima) {
+    ++result.runners_up_checked;
+    if (takeIfAgreesBetter(problem, space, space.pose(optimum.x), optimum.converged, false,
+                           scratch, result, finest_normalized_mi)) {
+      result.runner_up_kept = true;
+      kept = &optimum;
+    }
+  }
+  return kept;
+}
+
+void
+finishTheKeptRunnerUp(PreparedProblem& problem,
+                      const SearchSpace& space,
+                      LevelCosts& costs,
+                      const CoarseToFineOptions& options,
+                      const Eigen::VectorXd& from,
+                      int left,
+                      JointHistogram& scratch,
+                      AlignmentResult& result,
+                      double& finest_normalized_mi)
+{
+  StageClock clock;
+  const NelderMeadResult finished = finishOnFirstLevel(costs, options, from, left);
+  result.iterations += finished.iterations;
+  result.evaluations += finished.evaluations;
+  AlignmentResult other; // its stages are this stage's
+  other.search_converged = finished.converged;
+  const double other_normalized_mi =
+      finishCandidate(problem, space, space.pose(finished.x), scratch, other);
+  if (sharesSurface(other.verification) && other_normalized_mi >= finest_normalized_mi)
+    takeCandidate(std::move(other), other_normalized_mi, result, finest_normalized_mi);
+  clock.end(result.stages, "runner-up finished", finished.evaluations);
+}
+
+void
+judgeWithLead(PreparedProblem& problem, double lead, AlignmentResult& result)
+{
+  Verification& v = result.verification;
+  Verification without = v;
+  judge(without);
+  const std::string previous = v.reason;
+  v.lead = lead;
+  judge(v);
+  if (!v.reason.empty()) {
+    result.converged = false;
+    return;
+  }
+  if (without.reason.empty()) {
+    v.reason = previous;
+    result.converged = result.search_converged && previous.empty();
+    return;
+  }
+  result.converged = result.search_converged;
+  if (result.converged)
+    refuseASecondOptimum(problem, result);
+}
+
+} // namespace core
+} // namespace pcl_mi
