@@ -9,6 +9,7 @@
 #include "util/stage_clock.h"
 #include "verify/verification.h"
 
+#include <cmath>
 #include <iomanip>
 #include <optional>
 #include <sstream>
@@ -19,6 +20,31 @@ namespace pcl_mi {
 namespace core {
 
 namespace {
+
+/** Root mean square shift, in finest voxels, below which two refined poses are one optimum:
+ * the finest grid's MI cannot tell them apart. */
+constexpr double kSameOptimumVoxels = 0.5;
+
+/** Samples of the source at most that rmsShift() moves. */
+constexpr std::size_t kShiftSamples = 4096;
+
+/** Root mean square distance between the source's samples moved by \a a and by \a b (input
+ * frames). */
+double
+rmsShift(const PreparedProblem& problem, const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
+{
+  const std::vector<SourceSample>& samples = problem.refinementSamples().samples;
+  const Eigen::Matrix4d d = b - a;
+  const Eigen::Vector3d& centroid = problem.source().centroid;
+  const std::size_t stride = samples.size() / kShiftSamples + 1;
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < samples.size(); i += stride, ++count) {
+    const Eigen::Vector3d x = samples[i].position.cast<double>() + centroid;
+    sum += (d.topLeftCorner<3, 3>() * x + d.topRightCorner<3, 1>()).squaredNorm();
+  }
+  return count ? std::sqrt(sum / static_cast<double>(count)) : 0.0;
+}
 
 /** Takes the trust from \a result, which passed the reliability test, where a pose a few
  * voxels along its least constrained direction scores a higher MI on the finest grid
@@ -169,7 +195,13 @@ finishTheKeptRunnerUp(PreparedProblem& problem,
   other.search_converged = finished.converged;
   const double other_normalized_mi =
       finishCandidate(problem, space, space.pose(finished.x), scratch, other);
-  if (sharesSurface(other.verification) && other_normalized_mi >= finest_normalized_mi)
+  // Finished, the same optimum (refined within half a finest voxel of the result) is taken
+  // where it passes the verdict, whatever the finest grid's noise in its normalised MI.
+  const bool same_trusted_optimum =
+      other.converged && rmsShift(problem, result.transformation, other.transformation) <
+                             kSameOptimumVoxels * problem.levelResolution(0);
+  if (sharesSurface(other.verification) &&
+      (other_normalized_mi >= finest_normalized_mi || same_trusted_optimum))
     takeCandidate(std::move(other), other_normalized_mi, result, finest_normalized_mi);
   clock.end(result.stages, "runner-up finished", finished.evaluations);
 }

@@ -61,9 +61,11 @@ keepTheFinestGridsChoice(PreparedProblem& problem,
 
 /** \brief Finishes the search of the runner-up \a result holds, which stopped at \a from
  * (its search vector) at a candidate's share of the iteration cap, on at most \a left
- * iterations: from where it got, as the search finishes a capped candidate that wins. The finished optimum is refined and
- * verified, and stands where it lies on surface the clouds share and the finest grid's
- * normalised MI prefers it at least as much. */
+ * iterations: from where it got, as the search finishes a capped candidate that wins. The
+ * finished optimum is refined and verified, and stands where it lies on surface the clouds
+ * share and the finest grid's normalised MI prefers it at least as much, or where it passes
+ * the verdict and is the same optimum: refined within half a finest voxel of the result
+ * (root mean square shift of the source's samples). */
 void
 finishTheKeptRunnerUp(PreparedProblem& problem,
                       const SearchSpace& space,
