@@ -11,6 +11,10 @@
 #include <cmath>
 #include <sstream>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace pcl_mi {
 namespace core {
 
@@ -139,6 +143,71 @@ keepWithin(PointList& points,
   }
   sum = Eigen::Vector3d(x, y, z);
   return count;
+}
+
+/** Points per block of buildTargetGrid(): their cells and heights stay in L1. */
+constexpr std::size_t kCellBlock = 256;
+
+/** The cells (index into \a g) and quantised in-voxel heights of \a count points. Four at
+ * a time where SSE2 is there: the lanes round each operation as the scalar code does, in
+ * the same order, so both give the same cells. Truncation, clamped to the grid, gives
+ * floor()'s cells for every value: the two differ only below 0, where both clamp to 0. */
+void
+cellsOfPoints(const GridGeometry& g,
+              const Eigen::Vector3f* points,
+              std::size_t count,
+              std::uint32_t* cells,
+              int* heights)
+{
+  const float inv_res = 1.0f / g.resolution;
+  std::size_t i = 0;
+#if defined(__SSE2__)
+  // Cell indices are below kMaxGridCells = 2^24, so float holds them and their partial
+  // sums exactly.
+  static_assert(kMaxGridCells <= (std::size_t{1} << 24), "cell indices must fit a float");
+  const __m128 origin[3] = {_mm_set1_ps(g.origin.x()), _mm_set1_ps(g.origin.y()),
+                            _mm_set1_ps(g.origin.z())};
+  const __m128 inv = _mm_set1_ps(inv_res);
+  const __m128i zero = _mm_setzero_si128();
+  const __m128i last[3] = {_mm_set1_epi32(g.dims.x() - 1), _mm_set1_epi32(g.dims.y() - 1),
+                           _mm_set1_epi32(g.dims.z() - 1)};
+  const __m128i top_height = _mm_set1_epi32(kHeightLevels - 1);
+  const __m128 row = _mm_set1_ps(static_cast<float>(g.dims.x()));
+  const __m128 slice = _mm_set1_ps(static_cast<float>(g.dims.x()) * static_cast<float>(g.dims.y()));
+  const __m128 levels = _mm_set1_ps(static_cast<float>(kHeightLevels));
+  // min(max(v, 0), hi) lane by lane (SSE2 has no integer min or max).
+  const auto clamp = [zero](__m128i v, __m128i hi) {
+    v = _mm_and_si128(v, _mm_cmpgt_epi32(v, zero));
+    const __m128i above = _mm_cmpgt_epi32(v, hi);
+    return _mm_or_si128(_mm_and_si128(above, hi), _mm_andnot_si128(above, v));
+  };
+  for (; i + 4 <= count; i += 4) {
+    const Eigen::Vector3f* p = points + i;
+    __m128i index[3];
+    __m128 f[3];
+    for (int a = 0; a < 3; ++a) {
+      const __m128 v = _mm_setr_ps(p[0][a], p[1][a], p[2][a], p[3][a]);
+      f[a] = _mm_mul_ps(_mm_sub_ps(v, origin[a]), inv);
+      index[a] = clamp(_mm_cvttps_epi32(f[a]), last[a]);
+    }
+    const __m128 cell = _mm_add_ps(
+        _mm_add_ps(_mm_mul_ps(_mm_cvtepi32_ps(index[2]), slice),
+                   _mm_mul_ps(_mm_cvtepi32_ps(index[1]), row)),
+        _mm_cvtepi32_ps(index[0]));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cells + i), _mm_cvttps_epi32(cell));
+    const __m128 within = _mm_mul_ps(_mm_sub_ps(f[2], _mm_cvtepi32_ps(index[2])), levels);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(heights + i),
+                     clamp(_mm_cvttps_epi32(within), top_height));
+  }
+#endif
+  for (; i < count; ++i) {
+    const Eigen::Vector3f f = (points[i] - g.origin) * inv_res;
+    const int ix = std::min(std::max(static_cast<int>(f.x()), 0), g.dims.x() - 1);
+    const int iy = std::min(std::max(static_cast<int>(f.y()), 0), g.dims.y() - 1);
+    const int iz = std::min(std::max(static_cast<int>(f.z()), 0), g.dims.z() - 1);
+    cells[i] = static_cast<std::uint32_t>(g.cellIndex(ix, iy, iz));
+    heights[i] = quantiseHeight(f.z(), iz);
+  }
 }
 
 } // namespace
@@ -274,19 +343,18 @@ buildTargetGrid(const PointList& points,
   // their index (z, then y, then x), which is the order of grid.occupied.
   ZeroedArray<VoxelMoments> moments(g.cellCount());
   std::vector<std::uint32_t> occupied_cells;
-  const float inv_res = 1.0f / g.resolution;
-  // Truncation, clamped to the grid, gives floor()'s cells for every value: the two differ
-  // only below 0, where both clamp to 0. Without SSE4.1, floor() is the costlier.
-  for (const auto& p : points) {
-    const Eigen::Vector3f f = (p - g.origin) * inv_res;
-    const int ix = std::min(std::max(static_cast<int>(f.x()), 0), g.dims.x() - 1);
-    const int iy = std::min(std::max(static_cast<int>(f.y()), 0), g.dims.y() - 1);
-    const int iz = std::min(std::max(static_cast<int>(f.z()), 0), g.dims.z() - 1);
-    const std::size_t cell = g.cellIndex(ix, iy, iz);
-    VoxelMoments& m = moments[cell];
-    if (m.count == 0)
-      occupied_cells.push_back(static_cast<std::uint32_t>(cell));
-    m.add(quantiseHeight(f.z(), iz));
+  // The cells and quantised heights a block at a time, then the moments point by point.
+  std::uint32_t cells[kCellBlock];
+  int heights[kCellBlock];
+  for (std::size_t begin = 0; begin < points.size(); begin += kCellBlock) {
+    const std::size_t count = std::min(kCellBlock, points.size() - begin);
+    cellsOfPoints(g, points.data() + begin, count, cells, heights);
+    for (std::size_t k = 0; k < count; ++k) {
+      VoxelMoments& m = moments[cells[k]];
+      if (m.count == 0)
+        occupied_cells.push_back(cells[k]);
+      m.add(heights[k]);
+    }
   }
   std::sort(occupied_cells.begin(), occupied_cells.end());
   if (binning.range_quantile > 0.0) {
