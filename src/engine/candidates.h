@@ -45,12 +45,12 @@ takeIfAgreesBetter(PreparedProblem& problem,
                    double& finest_normalized_mi);
 
 /** \brief Refines and verifies each of \a optima (search vectors with their searches'
- * convergence) and puts the one with the highest normalised MI on the finest grid into \a result where
- * that is higher than the result's own, \a finest_normalized_mi (updated); counts them in
- * result.runners_up_checked. Normalised MI, as on the coarsest level, because the
- * candidates' overlaps differ. A candidate where the clouds share surface beats one where
- * they share too little whatever their MI: the MI of a few voxels at the edge of the
- * overlap can be high by chance, and such a pose aligns nothing. */
+ * convergence) and puts the one with the highest normalised MI on the finest grid into
+ * \a result where that is higher than the result's own, \a finest_normalized_mi (updated);
+ * counts them in result.runners_up_checked. Normalised MI, as on the coarsest level,
+ * because the candidates' overlaps differ. A candidate where the clouds share surface beats
+ * one where they share too little whatever their MI: the MI of a few voxels at the edge of
+ * the overlap can be high by chance, and such a pose aligns nothing. */
 const NelderMeadResult*
 keepTheFinestGridsChoice(PreparedProblem& problem,
                          const SearchSpace& space,

@@ -147,7 +147,8 @@ public:
     double sum = 0.0;
     std::size_t count = 0;
     for (std::size_t i = 0; i < source_.samples.size(); i += stride_, ++count) {
-      const Eigen::Vector3d q = rotation_ * source_.samples[i].position.cast<double>() + translation_;
+      const Eigen::Vector3d q =
+          rotation_ * source_.samples[i].position.cast<double>() + translation_;
       sum += (omega.cross(q) + delta).squaredNorm();
     }
     return count ? std::sqrt(sum / static_cast<double>(count)) : 0.0;
