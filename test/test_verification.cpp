@@ -63,6 +63,21 @@ moved(const Cloud& cloud, double x, double y, double yaw_deg)
   return out;
 }
 
+/** What a sensor at (\a sensor_x, 0, 0) looking along +x sees of \a scene, in its own
+ * frame: the points 0.5-40 m ahead for which \a in_view(ahead, y, z) holds. */
+template <typename InView>
+Cloud::Ptr
+viewAlongX(const Cloud& scene, float sensor_x, const InView& in_view)
+{
+  auto view = pcl::make_shared<Cloud>();
+  for (const auto& p : scene.points) {
+    const float ahead = p.x - sensor_x;
+    if (ahead > 0.5f && ahead < 40.0f && in_view(ahead, p.y, p.z))
+      view->push_back(pcl::PointXYZ(ahead, p.y, p.z));
+  }
+  return view;
+}
+
 } // namespace
 
 TEST(Verification, RealPairConvergesWithHighConfidence)
@@ -120,17 +135,12 @@ TEST(Verification, ANarrowViewOfACorridorIsDegenerateAlongItsLength)
   addBox(corridor, {-100.0f, -2.0f, 0.0f}, {100.0f, 2.0f, 0.0f}, 100000, rng);  // floor
   addBox(corridor, {-100.0f, -2.0f, 0.0f}, {100.0f, -2.0f, 3.0f}, 100000, rng); // walls
   addBox(corridor, {-100.0f, 2.0f, 0.0f}, {100.0f, 2.0f, 3.0f}, 100000, rng);
-  const auto seenFrom = [&](float sensor_x) {
-    auto view = pcl::make_shared<Cloud>();
-    for (const auto& p : corridor.points) {
-      const float ahead = p.x - sensor_x;
-      if (ahead > 0.5f && ahead < 40.0f && std::abs(std::atan2(p.y, ahead)) < 0.61f)
-        view->push_back(pcl::PointXYZ(ahead, p.y, p.z));
-    }
-    return view;
+  const auto within70Degrees = [](float ahead, float y, float) {
+    return std::abs(std::atan2(y, ahead)) < 0.61f;
   };
   Registration reg;
-  alignDefaults(reg, seenFrom(1.5f), seenFrom(0.0f));
+  alignDefaults(reg, viewAlongX(corridor, 1.5f, within70Degrees),
+                viewAlongX(corridor, 0.0f, within70Degrees));
   EXPECT_GT(reg.getLastResult().yaw_starts, 0) << "not searched as a narrow view";
   expectNotTrusted(reg, "degenerate along x");
   EXPECT_TRUE(reg.getCovariance().isZero());
@@ -150,17 +160,12 @@ TEST(Verification, ANarrowViewDownATunnelIsDegenerateAlongAndAboutIt)
     const float a = around(rng), r = 3.0f + noise(rng);
     tunnel.push_back(pcl::PointXYZ(along(rng), r * std::cos(a), r * std::sin(a)));
   }
-  const auto seenFrom = [&](float sensor_x) {
-    auto view = pcl::make_shared<Cloud>();
-    for (const auto& p : tunnel.points) {
-      const float ahead = p.x - sensor_x;
-      if (ahead > 0.5f && ahead < 40.0f && std::hypot(p.y, p.z) < 0.7f * ahead)
-        view->push_back(pcl::PointXYZ(ahead, p.y, p.z));
-    }
-    return view;
+  const auto withinTheCone = [](float ahead, float y, float z) {
+    return std::hypot(y, z) < 0.7f * ahead;
   };
   Registration reg;
-  alignDefaults(reg, seenFrom(1.5f), seenFrom(0.0f));
+  alignDefaults(reg, viewAlongX(tunnel, 1.5f, withinTheCone),
+                viewAlongX(tunnel, 0.0f, withinTheCone));
   EXPECT_GT(reg.getLastResult().yaw_starts, 0) << "not searched as a narrow view";
   expectNotTrusted(reg, "degenerate along x");
   EXPECT_NE(reg.getLastError().find("roll"), std::string::npos) << reg.getLastError();
