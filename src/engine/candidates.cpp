@@ -182,11 +182,14 @@ finishTheKeptRunnerUp(PreparedProblem& problem,
                       LevelCosts& costs,
                       const CoarseToFineOptions& options,
                       const Eigen::VectorXd& from,
-                      int left,
+                      int max_iterations,
                       JointHistogram& scratch,
                       AlignmentResult& result,
                       double& finest_normalized_mi)
 {
+  const int left = max_iterations - result.iterations;
+  if (result.search_converged || left <= 0)
+    return;
   StageClock clock;
   const NelderMeadResult finished = finishOnFirstLevel(costs, options, from, left);
   result.iterations += finished.iterations;

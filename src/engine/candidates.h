@@ -60,8 +60,9 @@ keepTheFinestGridsChoice(PreparedProblem& problem,
                          double& finest_normalized_mi);
 
 /** \brief Finishes the search of the runner-up \a result holds, which stopped at \a from
- * (its search vector) at a candidate's share of the iteration cap, on at most \a left
- * iterations: from where it got, as the search finishes a capped candidate that wins. The
+ * (its search vector) at a candidate's share of the iteration cap, on what the cap
+ * (\a max_iterations) leaves: from where it got, as the search finishes a capped candidate
+ * that wins. Nothing is done where its search converged or the cap leaves nothing. The
  * finished optimum is refined and verified, and stands where it lies on surface the clouds
  * share and the finest grid's normalised MI prefers it at least as much, or where it passes
  * the verdict and is the same optimum: refined within half a finest voxel of the result
@@ -72,7 +73,7 @@ finishTheKeptRunnerUp(PreparedProblem& problem,
                       LevelCosts& costs,
                       const CoarseToFineOptions& options,
                       const Eigen::VectorXd& from,
-                      int left,
+                      int max_iterations,
                       JointHistogram& scratch,
                       AlignmentResult& result,
                       double& finest_normalized_mi);

@@ -251,10 +251,9 @@ struct RegistrationCore::Impl {
       }
     }
     clock.end(result.stages, "reverse search", result.evaluations - evaluations_before);
-    const int left_after = max_iterations - result.iterations;
-    if (result.reverse_kept && !result.search_converged && left_after > 0)
+    if (result.reverse_kept)
       core::finishTheKeptRunnerUp(problem, space, costs, options, space.vector(kept_pose),
-                                  left_after, scratch, result, finest_normalized_mi);
+                                  max_iterations, scratch, result, finest_normalized_mi);
   }
 };
 
@@ -380,10 +379,9 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     const core::NelderMeadResult* kept = core::keepTheFinestGridsChoice(
         problem, space, found.alternatives, impl_->scratch, result, finest_normalized_mi);
     clock.end(result.stages, "runners-up", result.runners_up_checked);
-    const int left = max_iterations - result.iterations;
-    if (kept && !result.search_converged && left > 0)
-      core::finishTheKeptRunnerUp(problem, space, costs, options, kept->x, left, impl_->scratch,
-                                  result, finest_normalized_mi);
+    if (kept)
+      core::finishTheKeptRunnerUp(problem, space, costs, options, kept->x, max_iterations,
+                                  impl_->scratch, result, finest_normalized_mi);
   }
   // A narrow view's first search is as wide as the second one already.
   if (!result.verification.reason.empty() && !narrow_view && p.search.second_search_headings > 0)
