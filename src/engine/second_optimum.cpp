@@ -3,8 +3,11 @@
  */
 #include "engine/second_optimum.h"
 
+#include "util/parallel.h"
+
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <array>
 
 namespace pcl_mi {
@@ -29,22 +32,28 @@ higherAlongLeastConstrained(PreparedProblem& problem,
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(translation);
   const Eigen::Vector3d direction = solver.eigenvectors().col(2); // the largest variance
   const double voxel = problem.levelResolution(0);
-  // All on the evaluator that scored the result: a second one would first have to touch
-  // its own copy of the finest grid's moments, which on a fine grid costs more than the
-  // probes themselves.
-  JointHistogram histogram;
+  std::array<Eigen::Matrix4d, kSecondOptimumProbes> probes;
+  for (int i = 0; i < kSecondOptimumProbes; ++i) {
+    const double sign = i % 2 == 0 ? -1.0 : 1.0;
+    probes[i] = pose;
+    probes[i].topRightCorner<3, 1>() += sign * kProbeVoxels[i / 2] * voxel * direction;
+  }
+  // Both evaluators, each on every other probe; the best is then taken in the probes' order,
+  // so the answer does not depend on the threads.
+  std::array<double, kSecondOptimumProbes> values;
+  const int threads = std::min(2, problem.parameters().num_threads);
+  parallelFor(threads, threads, [&](int slot) {
+    JointHistogram histogram;
+    for (int i = slot; i < kSecondOptimumProbes; i += threads)
+      values[i] = problem.mutualInformation(probes[i], histogram, 0, slot);
+  });
   std::optional<Eigen::Matrix4d> higher;
   double best = mutual_information;
-  for (int i = 0; i < kSecondOptimumProbes; ++i) {
-    Eigen::Matrix4d probe = pose;
-    const double sign = i % 2 == 0 ? -1.0 : 1.0;
-    probe.topRightCorner<3, 1>() += sign * kProbeVoxels[i / 2] * voxel * direction;
-    const double value = problem.mutualInformation(probe, histogram, 0, 0);
-    if (value > best) {
-      best = value;
-      higher = probe;
+  for (int i = 0; i < kSecondOptimumProbes; ++i)
+    if (values[i] > best) {
+      best = values[i];
+      higher = probes[i];
     }
-  }
   return higher;
 }
 
