@@ -143,6 +143,23 @@ TEST(LocalCloud, AzimuthCoverageOfFullAndNarrowViews)
   EXPECT_LE(makeLocalCloud(far, 64.0).azimuth_coverage_deg, 10.0);
 }
 
+TEST(LocalCloud, AzimuthSectorsAtTheirEdges)
+{
+  // Points a hair (3e-6 rad) inside each of the 72 five-degree sectors' edges, on one side
+  // of every edge at a time: each sector holds points only if each point lands where
+  // atan2 puts it, though the azimuth is computed by a polynomial that errs by more.
+  for (const double side : {-1.0, 1.0}) {
+    PointList points;
+    for (int k = 0; k < 72; ++k) {
+      const double a = -M_PI + k * (2.0 * M_PI / 72.0) + side * 3e-6;
+      for (const double range : {3.0, 11.0, 40.0})
+        points.emplace_back(static_cast<float>(range * std::cos(a)),
+                            static_cast<float>(range * std::sin(a)), 0.5f);
+    }
+    EXPECT_DOUBLE_EQ(makeLocalCloud(points, 64.0).azimuth_coverage_deg, 360.0) << side;
+  }
+}
+
 TEST(TargetGrid, HandBuiltVoxels)
 {
   // Three points in voxel (0,0,0), one in voxel (2,1,0): grid spans 3 x 2 x 1 voxels.

@@ -210,6 +210,40 @@ cellsOfPoints(const GridGeometry& g,
   }
 }
 
+/** Largest error of atanUnit() in radians, with room to spare (measured: 1.2e-5). */
+constexpr double kAtanError = 1e-4;
+
+/** atan(t) for t in [0, 1], within kAtanError: a fifth-order odd polynomial (Abramowitz and
+ * Stegun 4.4.49), cheaper than std::atan2. */
+double
+atanUnit(double t)
+{
+  const double s = t * t;
+  return t * (0.9998660 + s * (-0.3302995 + s * (0.1801410 + s * (-0.0851330 + s * 0.0208351))));
+}
+
+/** (atan2(y, x) + pi) in units of 2 pi / \a sectors: the polynomial where it lies clearly
+ * inside a sector, std::atan2 within kAtanError of a sector's edge (and at the origin), so
+ * that every point lands in the sector std::atan2 gives it. */
+double
+sectorOf(double x, double y, int sectors)
+{
+  const double per_radian = sectors / (2.0 * M_PI);
+  const double ax = std::fabs(x), ay = std::fabs(y);
+  const double longer = std::max(ax, ay);
+  if (longer > 0.0) {
+    double a = atanUnit(std::min(ax, ay) / longer);
+    if (ay > ax)
+      a = M_PI_2 - a;
+    if (x < 0.0)
+      a = M_PI - a;
+    const double sector = ((y < 0.0 ? -a : a) + M_PI) * per_radian;
+    if (std::fabs(sector - std::round(sector)) > kAtanError * per_radian)
+      return sector;
+  }
+  return (std::atan2(y, x) + M_PI) * per_radian;
+}
+
 } // namespace
 
 LocalCloud
@@ -283,7 +317,7 @@ azimuthCoverageDegrees(const PointList& points)
   std::size_t looked = 0;
   for (std::size_t i = 0; i < points.size(); i += stride) {
     const Eigen::Vector3d p = points[i].cast<double>();
-    const double sector = (std::atan2(p.y(), p.x()) + M_PI) * (kSectors / (2.0 * M_PI));
+    const double sector = sectorOf(p.x(), p.y(), kSectors);
     ++count[static_cast<std::size_t>(std::clamp(static_cast<int>(sector), 0, kSectors - 1))];
     ++looked;
   }
