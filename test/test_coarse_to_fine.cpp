@@ -261,6 +261,32 @@ TEST(CoarseToFine, TheBudgetCapsEveryIterationAndThreadsDoNotChangeTheResult)
   EXPECT_EQ(a.evaluations, b.evaluations);
 }
 
+TEST(CoarseToFine, ManyStartsOfUnevenLengthsGiveTheSameResultOnOneThreadOrTwo)
+{
+  // Sixteen starts on a rugged cost run for very different numbers of iterations; with two
+  // threads each evaluator takes the next start when it is done, in whatever order the
+  // threads finish, and every result must still be the one thread's.
+  auto f = [](int level, const Eigen::VectorXd& x) {
+    return 0.05 * x.squaredNorm() + std::cos(1.3 * x[0]) + std::cos(1.7 * x[1]) +
+           std::cos(9.0 * x[2]) + 0.01 * level;
+  };
+  CoarseToFineOptions o = planarOptions();
+  o.heading_starts = 6;
+  o.position_starts = 10;
+  o.num_threads = 1;
+  SyntheticCosts serial(3, f);
+  const auto a = pcl_mi::core::searchCoarseToFine(serial, o);
+  o.num_threads = 2;
+  SyntheticCosts parallel(3, f);
+  const auto b = pcl_mi::core::searchCoarseToFine(parallel, o);
+  EXPECT_EQ(a.best.x, b.best.x);
+  EXPECT_EQ(a.evaluations, b.evaluations);
+  EXPECT_EQ(a.iterations, b.iterations);
+  ASSERT_EQ(a.alternatives.size(), b.alternatives.size());
+  for (std::size_t i = 0; i < a.alternatives.size(); ++i)
+    EXPECT_EQ(a.alternatives[i].x, b.alternatives[i].x) << i;
+}
+
 TEST(CoarseToFine, TheBudgetHoldsWithManyCandidatesOnTheFinerLevels)
 {
   // A rugged cost and many starts leave several distinct candidates for every finer level,

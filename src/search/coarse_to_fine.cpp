@@ -7,6 +7,7 @@
 #include "util/stage_clock.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numeric>
 #include <sstream>
@@ -69,8 +70,9 @@ public:
 
   /** Independent searches on one level, each as search() would run it alone. Where the
    * costs prefer batches (a GPU), they run in lockstep with one batch of every search's
-   * points per round; otherwise two at a time, one per evaluator, concurrent when threads
-   * allow. The results are the same either way. */
+   * points per round; otherwise each evaluator, on a thread of its own where threads allow,
+   * takes the next search as soon as it is done with one. The results are the same either
+   * way: every search's cap is fixed before it starts. */
   std::vector<NelderMeadResult>
   searchAll(int level, const std::vector<Start>& starts)
   {
@@ -84,13 +86,14 @@ public:
       });
     }
     else {
+      // Taken in turn rather than in pairs: a short search does not leave its evaluator
+      // waiting for its partner's long one.
       int rounds[2] = {0, 0};
-      for (std::size_t i = 0; i < runs.size(); i += 2) {
-        const int count = i + 1 < runs.size() ? 2 : 1;
-        parallelFor(count, o_.num_threads, [&](int k) {
-          rounds[k] += drive(runs[i + static_cast<std::size_t>(k)], level, k);
-        });
-      }
+      std::atomic<std::size_t> next{0};
+      parallelFor(std::min<int>(2, static_cast<int>(runs.size())), o_.num_threads, [&](int slot) {
+        for (std::size_t i = next++; i < runs.size(); i = next++)
+          rounds[slot] += drive(runs[i], level, slot);
+      });
       result_.batches += rounds[0] + rounds[1];
     }
     std::vector<NelderMeadResult> results;
