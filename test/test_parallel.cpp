@@ -13,6 +13,7 @@
 #include <vector>
 
 using pcl_mi::core::parallelFor;
+using pcl_mi::core::parallelForOnWorkers;
 
 TEST(ParallelFor, RunsEveryTaskOnceOnAnyNumberOfThreads)
 {
@@ -21,6 +22,32 @@ TEST(ParallelFor, RunsEveryTaskOnceOnAnyNumberOfThreads)
     for (int call = 0; call < 200; ++call) {
       std::vector<int> runs(37, 0);
       parallelFor(static_cast<int>(runs.size()), threads, [&](int i) { ++runs[i]; });
+      for (std::size_t i = 0; i < runs.size(); ++i)
+        ASSERT_EQ(runs[i], 1) << "threads " << threads << ", call " << call << ", task " << i;
+    }
+  }
+}
+
+TEST(ParallelFor, EachWorkerHasItsOwnIndex)
+{
+  // Per-worker state without a lock: each worker appends the tasks it ran to its own list;
+  // together the lists hold every task once, and no index reaches the thread count.
+  for (const int threads : {1, 2, 3}) {
+    for (int call = 0; call < 100; ++call) {
+      std::vector<std::vector<int>> ran(static_cast<std::size_t>(threads));
+      std::atomic<bool> in_range{true};
+      parallelForOnWorkers(41, threads, [&](int i, int worker) {
+        if (worker < 0 || worker >= threads) {
+          in_range = false;
+          return;
+        }
+        ran[static_cast<std::size_t>(worker)].push_back(i);
+      });
+      ASSERT_TRUE(in_range) << "threads " << threads;
+      std::vector<int> runs(41, 0);
+      for (const auto& list : ran)
+        for (const int i : list)
+          ++runs[static_cast<std::size_t>(i)];
       for (std::size_t i = 0; i < runs.size(); ++i)
         ASSERT_EQ(runs[i], 1) << "threads " << threads << ", call " << call << ", task " << i;
     }

@@ -7,7 +7,6 @@
 #include "util/stage_clock.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <numeric>
 #include <sstream>
@@ -87,13 +86,12 @@ public:
     }
     else {
       // Taken in turn rather than in pairs: a short search does not leave its evaluator
-      // waiting for its partner's long one.
+      // waiting for its partner's long one. One thread per evaluator.
       int rounds[2] = {0, 0};
-      std::atomic<std::size_t> next{0};
-      parallelFor(std::min<int>(2, static_cast<int>(runs.size())), o_.num_threads, [&](int slot) {
-        for (std::size_t i = next++; i < runs.size(); i = next++)
-          rounds[slot] += drive(runs[i], level, slot);
-      });
+      parallelForOnWorkers(static_cast<int>(runs.size()), std::min(2, o_.num_threads),
+                           [&](int i, int slot) {
+                             rounds[slot] += drive(runs[static_cast<std::size_t>(i)], level, slot);
+                           });
       result_.batches += rounds[0] + rounds[1];
     }
     std::vector<NelderMeadResult> results;

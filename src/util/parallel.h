@@ -23,22 +23,26 @@ namespace core {
 void
 runOnThreads(int helpers, const std::function<void()>& work);
 
-/** \brief Runs task(0) .. task(tasks - 1) on up to \a threads threads (the caller's
- * included), each thread taking the next task as it becomes free, and rethrows the first
- * failure (by task order). Each task must write only its own results: the split into
- * tasks, not the threads or the order they run in, then fixes every floating-point sum,
- * so results do not depend on the thread count. */
+/** \brief Runs task(0, worker) .. task(tasks - 1, worker) on up to \a threads threads (the
+ * caller's included), each thread taking the next task as it becomes free, and rethrows
+ * the first failure (by task order). \a worker (0 .. threads - 1) names the thread that
+ * runs the task, one index per thread, so a task may use that thread's own state (an
+ * evaluator, a scratch buffer) without a lock. Each task must write only its own results:
+ * the split into tasks, not the threads or the order they run in, then fixes every
+ * floating-point sum, so results do not depend on the thread count. */
 template <typename Task>
 void
-parallelFor(int tasks, int threads, const Task& task)
+parallelForOnWorkers(int tasks, int threads, const Task& task)
 {
   threads = std::max(1, std::min(threads, tasks));
   std::vector<std::exception_ptr> failures(static_cast<std::size_t>(std::max(tasks, 0)));
   std::atomic<int> next{0};
+  std::atomic<int> workers{0};
   const std::function<void()> run = [&] {
+    const int worker = workers++;
     for (int i = next++; i < tasks; i = next++) {
       try {
-        task(i);
+        task(i, worker);
       }
       catch (...) {
         failures[static_cast<std::size_t>(i)] = std::current_exception();
@@ -52,6 +56,15 @@ parallelFor(int tasks, int threads, const Task& task)
   for (const auto& f : failures)
     if (f)
       std::rethrow_exception(f);
+}
+
+/** \brief parallelForOnWorkers() for tasks that need no thread state: task(0) ..
+ * task(tasks - 1). */
+template <typename Task>
+void
+parallelFor(int tasks, int threads, const Task& task)
+{
+  parallelForOnWorkers(tasks, threads, [&task](int i, int) { task(i); });
 }
 
 } // namespace core
