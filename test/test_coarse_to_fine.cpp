@@ -71,6 +71,26 @@ bowl(const Eigen::VectorXd& x, const Eigen::Vector3d& centre)
   return (x - centre).squaredNorm();
 }
 
+/** Searches \a f with \a o on one thread and on two, and expects the same result of
+ * both: the best, the counts, and the runners-up. */
+void
+expectTheSameOnOneThreadOrTwo(const std::function<double(int, const Eigen::VectorXd&)>& f,
+                              CoarseToFineOptions o)
+{
+  o.num_threads = 1;
+  SyntheticCosts serial(3, f);
+  const CoarseToFineResult a = pcl_mi::core::searchCoarseToFine(serial, o);
+  o.num_threads = 2;
+  SyntheticCosts parallel(3, f);
+  const CoarseToFineResult b = pcl_mi::core::searchCoarseToFine(parallel, o);
+  EXPECT_EQ(a.best.x, b.best.x);
+  EXPECT_EQ(a.evaluations, b.evaluations);
+  EXPECT_EQ(a.iterations, b.iterations);
+  ASSERT_EQ(a.alternatives.size(), b.alternatives.size());
+  for (std::size_t i = 0; i < a.alternatives.size(); ++i)
+    EXPECT_EQ(a.alternatives[i].x, b.alternatives[i].x) << i;
+}
+
 } // namespace
 
 TEST(CoarseToFine, FindsTheMinimumOfABowlOnEveryLevel)
@@ -251,14 +271,7 @@ TEST(CoarseToFine, TheBudgetCapsEveryIterationAndThreadsDoNotChangeTheResult)
   EXPECT_LE(r.iterations, 40);
   EXPECT_FALSE(r.best.converged);
   o.max_iterations = 1000;
-  o.num_threads = 1;
-  SyntheticCosts serial(3, f);
-  const auto a = pcl_mi::core::searchCoarseToFine(serial, o);
-  o.num_threads = 2;
-  SyntheticCosts parallel(3, f);
-  const auto b = pcl_mi::core::searchCoarseToFine(parallel, o);
-  EXPECT_EQ(a.best.x, b.best.x);
-  EXPECT_EQ(a.evaluations, b.evaluations);
+  expectTheSameOnOneThreadOrTwo(f, o);
 }
 
 TEST(CoarseToFine, ManyStartsOfUnevenLengthsGiveTheSameResultOnOneThreadOrTwo)
@@ -273,18 +286,7 @@ TEST(CoarseToFine, ManyStartsOfUnevenLengthsGiveTheSameResultOnOneThreadOrTwo)
   CoarseToFineOptions o = planarOptions();
   o.heading_starts = 6;
   o.position_starts = 10;
-  o.num_threads = 1;
-  SyntheticCosts serial(3, f);
-  const auto a = pcl_mi::core::searchCoarseToFine(serial, o);
-  o.num_threads = 2;
-  SyntheticCosts parallel(3, f);
-  const auto b = pcl_mi::core::searchCoarseToFine(parallel, o);
-  EXPECT_EQ(a.best.x, b.best.x);
-  EXPECT_EQ(a.evaluations, b.evaluations);
-  EXPECT_EQ(a.iterations, b.iterations);
-  ASSERT_EQ(a.alternatives.size(), b.alternatives.size());
-  for (std::size_t i = 0; i < a.alternatives.size(); ++i)
-    EXPECT_EQ(a.alternatives[i].x, b.alternatives[i].x) << i;
+  expectTheSameOnOneThreadOrTwo(f, o);
 }
 
 TEST(CoarseToFine, TheBudgetHoldsWithManyCandidatesOnTheFinerLevels)
