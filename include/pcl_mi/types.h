@@ -122,7 +122,10 @@ struct Verification {
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Identity();
   /** Share of the inliers lost by moving the result either way along each of the two least
    * observable directions, so far that the samples move one voxel (root mean square); below
-   * 0.05 the direction counts as free (degenerate). */
+   * 0.05 the direction counts as free (degenerate). Where the result leaves the sensors
+   * where they were (within a voxel, and turned by less than a voxel at the source's RMS
+   * radius; the input frames' origins and axes stand for them), only inliers on surfaces
+   * that the move crosses count: the scan patterns then fall on one another by themselves. */
   double free_direction_contrast[2] = {0.0, 0.0};
   /** Narrow fields of view only, NaN otherwise: how far the MI on the finest grid of the
    * result's optimum in translation leads the highest other optimum found within six voxels

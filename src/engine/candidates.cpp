@@ -9,6 +9,9 @@
 #include "util/stage_clock.h"
 #include "verify/verification.h"
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <optional>
@@ -87,6 +90,18 @@ takeCandidate(AlignmentResult&& other,
   result.verification = std::move(other.verification);
 }
 
+/** True where \a pose puts the source's sensor within a voxel of the target's and turns it
+ * by less than the verdict's probes do (a voxel at the source's RMS radius): the input
+ * frames' origins and axes stand for the sensors, as for the azimuth coverage. */
+bool
+sensorsCoincide(const PreparedProblem& problem, const Eigen::Matrix4d& pose)
+{
+  const double resolution = problem.levelResolution(0);
+  const double turn = Eigen::AngleAxisd(Eigen::Matrix3d(pose.topLeftCorner<3, 3>())).angle();
+  return pose.topRightCorner<3, 1>().norm() < resolution &&
+         turn * std::max(problem.source().rms_radius, resolution) < resolution;
+}
+
 } // namespace
 
 double
@@ -120,10 +135,11 @@ finishCandidate(PreparedProblem& problem,
   const double finest_normalized_mi =
       scratch.overlap_voxels == 0 ? 0.0 : normalizedMutualInformation(scratch);
   const LocalPose at = problem.toLocal(result.transformation);
+  const bool sensors_coincide = sensorsCoincide(problem, result.transformation);
   result.verification = verifyPose(
       problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
       problem.levelResolution(0), scratch, problem.target().centroid, problem.targetAxes(),
-      p.num_threads);
+      sensors_coincide, p.num_threads);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
   if (result.converged)

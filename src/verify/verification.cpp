@@ -68,6 +68,10 @@ constexpr double kFreeDirectionContrast = 0.05;
 /** A component of a free direction at least this large names its axis in the reason. */
 constexpr double kNamedComponent = 0.4;
 
+/** Least share of a move that must cross a sample's surface for the sample to count in the
+ * free-direction probe: the sine of the angle between the move and the surface. */
+constexpr float kAcrossSurface = 0.5f;
+
 const char* const kAxisNames[6] = {"x", "y", "z", "roll", "pitch", "yaw"};
 
 double
@@ -139,6 +143,27 @@ public:
     return 0.5 * lost;
   }
 
+  /** \brief lostEitherWay() counting only the inliers whose surface the move crosses (by at
+   * least kAcrossSurface of its length), at the result and at the moved poses alike: a
+   * sample moved along its own surface (the ground under a move along the road) keeps or
+   * loses its inlier by how the sensors sampled that surface, which says nothing of the
+   * pose where their scan patterns fall on one another. */
+  double
+  lostAcrossEitherWay(const Eigen::Vector3d& omega, const Eigen::Vector3d& delta) const
+  {
+    if (!(base_ > 0.0))
+      return 0.0;
+    const double at = inliersAcross(rotation_, translation_, omega, delta);
+    double lost = 0.0;
+    for (int sign = -1; sign <= 1; sign += 2) {
+      Eigen::Matrix3d r = rotation_;
+      Eigen::Vector3d t = translation_;
+      applyLeftIncrement(sign * omega, sign * delta, r, t);
+      lost += (at - inliersAcross(r, t, omega, delta)) / base_;
+    }
+    return 0.5 * lost;
+  }
+
   /** \brief Root mean square distance by which the left increment [omega, delta] moves the
    * probed samples, to first order. */
   double
@@ -172,6 +197,30 @@ public:
   }
 
 private:
+  /** The probed samples at \a rotation, \a translation that are inliers of a surface that
+   * the left increment [omega, delta] crosses. */
+  double
+  inliersAcross(const Eigen::Matrix3d& rotation,
+                const Eigen::Vector3d& translation,
+                const Eigen::Vector3d& omega,
+                const Eigen::Vector3d& delta) const
+  {
+    const Eigen::Vector3f w = omega.cast<float>();
+    const Eigen::Vector3f d = delta.cast<float>();
+    std::size_t count = 0;
+    visitInCubes(target_, source_, rotation.cast<float>(), translation.cast<float>(), 0,
+                 source_.samples.size(), stride_, [&](const Eigen::Vector3f& q, int k) {
+                   if (k < 0 || target_[k].points < kEvidenceMinimumPoints)
+                     return;
+                   const TargetDistributions::Distribution& dist = target_[k];
+                   const Eigen::Vector3f e = q - dist.mean;
+                   const Eigen::Vector3f m = w.cross(q) + d;
+                   count += e.dot(dist.information * e) <= kInlierMahalanobis &&
+                            std::abs(dist.normal.dot(m)) >= kAcrossSurface * m.norm();
+                 });
+    return static_cast<double>(count);
+  }
+
   const TargetDistributions& target_;
   const SourceSamples& source_;
   const Eigen::Matrix3d rotation_;
@@ -286,6 +335,7 @@ verifyPose(const TargetDistributions& target,
            const JointHistogram& histogram,
            const Eigen::Vector3d& target_centroid,
            const Eigen::Matrix3d& target_axes,
+           bool sensors_coincide,
            int num_threads)
 {
   Verification v;
@@ -328,7 +378,9 @@ verifyPose(const TargetDistributions& target,
     const Eigen::Vector3d delta = direction.head<3>();
     const double shift = probe.rmsShift(omega, delta);
     const double step = shift > 0.0 ? resolution / shift : resolution;
-    v.free_direction_contrast[k] = probe.lostEitherWay(step * omega, step * delta);
+    v.free_direction_contrast[k] = sensors_coincide
+                                       ? probe.lostAcrossEitherWay(step * omega, step * delta)
+                                       : probe.lostEitherWay(step * omega, step * delta);
   });
   // Reported in the input frame: [delta, omega * radius] turn alike.
   v.observability_directions.topRows<3>() = target_axes * v.observability_directions.topRows<3>();

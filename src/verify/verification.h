@@ -48,8 +48,12 @@ judge(Verification& v);
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
  * in the target's input frame (input = centroid + axes * local), in which the covariance
- * (about the input frame's origin) and the observability directions are given. It runs on
- * up to \a num_threads threads, with the same result on any number. */
+ * (about the input frame's origin) and the observability directions are given.
+ * \a sensors_coincide says that the pose puts the source's sensor within a voxel of the
+ * target's (taken, as everywhere, at the origins of the clouds' input frames): their scan
+ * patterns may then fall on one another, and only surfaces that a move crosses count as
+ * holding the pose in the free-direction probe. It runs on up to \a num_threads threads,
+ * with the same result on any number. */
 Verification
 verifyPose(const TargetDistributions& target,
            const SourceSamples& source,
@@ -59,6 +63,7 @@ verifyPose(const TargetDistributions& target,
            const JointHistogram& histogram,
            const Eigen::Vector3d& target_centroid,
            const Eigen::Matrix3d& target_axes,
+           bool sensors_coincide,
            int num_threads = 1);
 
 } // namespace core
