@@ -301,3 +301,19 @@ TEST(Verification, ARingScannedRoadIsDegenerateAlongItWhereTheRingsMeet)
   expectNotTrusted(reg, "degenerate along x");
   EXPECT_TRUE(reg.getCovariance().isZero());
 }
+
+// A sensor that stood still: a real street scan against its own other half (every second
+// point), the rings of both on one another as at the unmoved pose above. Surfaces across
+// every direction hold the pose, so it must still say converged.
+TEST(Verification, ARealScanAgainstItsOtherHalfConverges)
+{
+  const Cloud::Ptr scan = test_data::loadScan("00", 0);
+  auto even = pcl::make_shared<Cloud>(), odd = pcl::make_shared<Cloud>();
+  for (std::size_t i = 0; i < scan->size(); ++i)
+    (i % 2 == 0 ? even : odd)->push_back((*scan)[i]);
+  Registration reg;
+  alignDefaults(reg, odd, even);
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_GE(reg.getConfidence(), 0.95);
+  EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), Eigen::Matrix4d::Identity());
+}
