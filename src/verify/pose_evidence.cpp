@@ -30,15 +30,14 @@ gatherPoseEvidence(const TargetDistributions& target,
                    return;
                  ++evidence.matched;
                  const TargetDistributions::Distribution& dist = target[k];
-                 const Eigen::Vector3f e = q - dist.mean;
-                 const float m = e.dot(dist.information * e);
-                 if (!(m <= kInlierMahalanobis))
+                 if (!isInlier(dist, q))
                    return;
                  ++evidence.inliers;
                  if (!with_information)
                    return;
                  // n . (exp(omega) q + delta - mean): d/domega = (q x n)^T, d/ddelta = n^T.
                  const Eigen::Vector3f n = dist.normal;
+                 const Eigen::Vector3f e = q - dist.mean;
                  Eigen::Matrix<double, 6, 1> a;
                  a << q.cross(n).cast<double>(), n.cast<double>();
                  information.noalias() += a * a.transpose();

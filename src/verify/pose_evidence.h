@@ -42,6 +42,16 @@ constexpr double kInlierMahalanobis = 9.0;
  * confidence model was fitted on such cubes. */
 constexpr std::uint32_t kEvidenceMinimumPoints = 4;
 
+/** \brief True where the sample \a q lies on the surface of the target cube \a dist: the cube
+ * holds kEvidenceMinimumPoints or more, and q lies within kInlierMahalanobis of its
+ * distribution. */
+inline bool
+isInlier(const TargetDistributions::Distribution& dist, const Eigen::Vector3f& q)
+{
+  const Eigen::Vector3f e = q - dist.mean;
+  return dist.points >= kEvidenceMinimumPoints && e.dot(dist.information * e) <= kInlierMahalanobis;
+}
+
 /** \brief The evidence of every \a stride-th sample of \a source moved by \a rotation,
  * \a translation (source local to target local) against \a target; the point-to-plane
  * terms only when \a with_information. */

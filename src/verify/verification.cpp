@@ -213,13 +213,10 @@ private:
     std::size_t count = 0;
     visitInCubes(target_, source_, rotation.cast<float>(), translation.cast<float>(), 0,
                  source_.samples.size(), stride_, [&](const Eigen::Vector3f& q, int k) {
-                   if (k < 0 || target_[k].points < kEvidenceMinimumPoints)
+                   if (k < 0 || !isInlier(target_[k], q))
                      return;
-                   const TargetDistributions::Distribution& dist = target_[k];
-                   const Eigen::Vector3f e = q - dist.mean;
                    const Eigen::Vector3f m = w.cross(q) + d;
-                   count += e.dot(dist.information * e) <= kInlierMahalanobis &&
-                            std::abs(dist.normal.dot(m)) >= kAcrossSurface * m.norm();
+                   count += std::abs(target_[k].normal.dot(m)) >= kAcrossSurface * m.norm();
                  });
     return static_cast<double>(count);
   }

@@ -49,11 +49,11 @@ judge(Verification& v);
  * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
  * in the target's input frame (input = centroid + axes * local), in which the covariance
  * (about the input frame's origin) and the observability directions are given.
- * \a sensors_coincide says that the pose puts the source's sensor within a voxel of the
- * target's (taken, as everywhere, at the origins of the clouds' input frames): their scan
- * patterns may then fall on one another, and only surfaces that a move crosses count as
- * holding the pose in the free-direction probe. It runs on up to \a num_threads threads,
- * with the same result on any number. */
+ * \a sensors_coincide says that the pose leaves the sensors where they were (the caller
+ * decides; the engine: within a voxel, turned by less than a voxel at the source's RMS
+ * radius): their scan patterns may then fall on one another, and only surfaces that a move
+ * crosses count as holding the pose in the free-direction probe. It runs on up to
+ * \a num_threads threads, with the same result on any number. */
 Verification
 verifyPose(const TargetDistributions& target,
            const SourceSamples& source,
