@@ -134,16 +134,9 @@ public:
   double
   lostEitherWay(const Eigen::Vector3d& omega, const Eigen::Vector3d& delta) const
   {
-    if (!(base_ > 0.0))
-      return 0.0;
-    double lost = 0.0;
-    for (int sign = -1; sign <= 1; sign += 2) {
-      Eigen::Matrix3d r = rotation_;
-      Eigen::Vector3d t = translation_;
-      applyLeftIncrement(sign * omega, sign * delta, r, t);
-      lost += 1.0 - gatherPoseEvidence(target_, source_, r, t, stride_).inliers / base_;
-    }
-    return 0.5 * lost;
+    return meanEitherWay(omega, delta, [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
+      return 1.0 - gatherPoseEvidence(target_, source_, r, t, stride_).inliers / base_;
+    });
   }
 
   /** \brief lostEitherWay() counting only the inliers whose surface the move crosses (by at
@@ -157,14 +150,9 @@ public:
     if (!(base_ > 0.0))
       return 0.0;
     const double at = inliersAcross(rotation_, translation_, omega, delta);
-    double lost = 0.0;
-    for (int sign = -1; sign <= 1; sign += 2) {
-      Eigen::Matrix3d r = rotation_;
-      Eigen::Vector3d t = translation_;
-      applyLeftIncrement(sign * omega, sign * delta, r, t);
-      lost += (at - inliersAcross(r, t, omega, delta)) / base_;
-    }
-    return 0.5 * lost;
+    return meanEitherWay(omega, delta, [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
+      return (at - inliersAcross(r, t, omega, delta)) / base_;
+    });
   }
 
   /** \brief Root mean square distance by which the left increment [omega, delta] moves the
@@ -200,6 +188,26 @@ public:
   }
 
 private:
+  /** The mean of \a loss_at(r, t) over the poses the left increments +-[omega, delta] move
+   * the result to; 0 for a result without inliers. */
+  template <typename LossAt>
+  double
+  meanEitherWay(const Eigen::Vector3d& omega,
+                const Eigen::Vector3d& delta,
+                const LossAt& loss_at) const
+  {
+    if (!(base_ > 0.0))
+      return 0.0;
+    double lost = 0.0;
+    for (int sign = -1; sign <= 1; sign += 2) {
+      Eigen::Matrix3d r = rotation_;
+      Eigen::Vector3d t = translation_;
+      applyLeftIncrement(sign * omega, sign * delta, r, t);
+      lost += loss_at(r, t);
+    }
+    return 0.5 * lost;
+  }
+
   /** The probed samples at \a rotation, \a translation that are inliers of a surface that
    * the left increment [omega, delta] crosses. */
   double
