@@ -127,6 +127,13 @@ struct Verification {
    * radius; the input frames' origins and axes stand for them), only inliers on surfaces
    * that the move crosses count: the scan patterns then fall on one another by themselves. */
   double free_direction_contrast[2] = {0.0, 0.0};
+  /** For each of those two directions that the contrast leaves free and that is mostly a turn
+   * tilting the source (about an axis at least 60 degrees from the input frame's z), the
+   * share of the MI on the finest grid that the same moves lose, either way on average; NaN
+   * where it was not asked (and where the sensors stand where they were). At 0.1 or more the
+   * MI holds the turn, and the direction does not count as free. */
+  double free_turn_mi_loss[2] = {std::numeric_limits<double>::quiet_NaN(),
+                                 std::numeric_limits<double>::quiet_NaN()};
   /** Narrow fields of view only, NaN otherwise: how far the MI on the finest grid of the
    * result's optimum in translation leads the highest other optimum found within six voxels
    * across, as a share of its own; negative where another scores higher, which the verdict

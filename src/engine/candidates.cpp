@@ -136,10 +136,15 @@ finishCandidate(PreparedProblem& problem,
       scratch.overlap_voxels == 0 ? 0.0 : normalizedMutualInformation(scratch);
   const LocalPose at = problem.toLocal(result.transformation);
   const bool sensors_coincide = sensorsCoincide(problem, result.transformation);
+  JointHistogram probed;
+  const FinestMutualInformation finest_mi = [&](const Eigen::Matrix3d& rotation,
+                                                const Eigen::Vector3d& translation) {
+    return problem.mutualInformation(problem.fromLocal({rotation, translation}), probed);
+  };
   result.verification = verifyPose(
       problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
       problem.levelResolution(0), scratch, problem.target().centroid, problem.targetAxes(),
-      sensors_coincide, p.num_threads);
+      sensors_coincide, p.num_threads, finest_mi);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
   if (result.converged)

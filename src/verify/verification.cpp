@@ -75,6 +75,20 @@ constexpr double kNamedComponent = 0.4;
  * (docs/benchmarks.md, "The verdict where the sensors stand where they were"). */
 constexpr float kAcrossSurface = 0.3f;
 
+/** A free direction whose unit move ([t, omega * radius]) is at least this much a turn is
+ * asked of the MI on the finest grid, where the sensors do not stand where they were: the
+ * surfaces may hold a narrow view's turn about its axis of view only weakly while the MI holds
+ * it. A shift along a floor or a corridor changes the MI only where the scans end, which the
+ * sensor's range sets, not the scene (docs/benchmarks.md, "Free turns the MI holds"). */
+constexpr double kTurnShare = 0.7;
+/** Largest share of that turn's axis along the input frame's z: a turn about the vertical
+ * swings a narrow view's samples sideways, as the slides along facades that the MI can prefer
+ * do; a tilt, about the axis of view or across it, does not. */
+constexpr double kSwingShare = 0.5;
+/** Least share of the MI that the free turn's moves must lose, either way on average, for the
+ * MI to hold the turn. */
+constexpr double kHeldTurnMiLoss = 0.1;
+
 const char* const kAxisNames[6] = {"x", "y", "z", "roll", "pitch", "yaw"};
 
 double
@@ -86,11 +100,33 @@ rmsRadius(const SourceSamples& source)
   return source.samples.empty() ? 0.0 : std::sqrt(sum / source.samples.size());
 }
 
-/** True where the \a k-th least observable direction of \a v is free. */
+/** True where the \a k-th least observable direction of \a v is free: its contrast is low and
+ * the MI does not hold it (false for a NaN loss). */
 bool
 isFree(const Verification& v, int k)
 {
-  return v.free_direction_contrast[k] < kFreeDirectionContrast;
+  return v.free_direction_contrast[k] < kFreeDirectionContrast &&
+         !(v.free_turn_mi_loss[k] >= kHeldTurnMiLoss);
+}
+
+/** The mean of \a value_at(r, t) over the two poses that the left increments +-[omega,
+ * delta] move \a rotation, \a translation to. */
+template <typename ValueAt>
+double
+meanEitherWay(const Eigen::Matrix3d& rotation,
+              const Eigen::Vector3d& translation,
+              const Eigen::Vector3d& omega,
+              const Eigen::Vector3d& delta,
+              const ValueAt& value_at)
+{
+  double sum = 0.0;
+  for (int sign = -1; sign <= 1; sign += 2) {
+    Eigen::Matrix3d r = rotation;
+    Eigen::Vector3d t = translation;
+    applyLeftIncrement(sign * omega, sign * delta, r, t);
+    sum += value_at(r, t);
+  }
+  return 0.5 * sum;
 }
 
 /** "x, y and yaw": the axes that the free directions of \a v move. */
@@ -134,7 +170,7 @@ public:
   double
   lostEitherWay(const Eigen::Vector3d& omega, const Eigen::Vector3d& delta) const
   {
-    return meanEitherWay(omega, delta, [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
+    return meanLoss(omega, delta, [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
       return 1.0 - gatherPoseEvidence(target_, source_, r, t, stride_).inliers / base_;
     });
   }
@@ -150,7 +186,7 @@ public:
     if (!(base_ > 0.0))
       return 0.0;
     const double at = inliersAcross(rotation_, translation_, omega, delta);
-    return meanEitherWay(omega, delta, [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
+    return meanLoss(omega, delta, [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
       return (at - inliersAcross(r, t, omega, delta)) / base_;
     });
   }
@@ -192,20 +228,9 @@ private:
    * the result to; 0 for a result without inliers. */
   template <typename LossAt>
   double
-  meanEitherWay(const Eigen::Vector3d& omega,
-                const Eigen::Vector3d& delta,
-                const LossAt& loss_at) const
+  meanLoss(const Eigen::Vector3d& omega, const Eigen::Vector3d& delta, const LossAt& loss_at) const
   {
-    if (!(base_ > 0.0))
-      return 0.0;
-    double lost = 0.0;
-    for (int sign = -1; sign <= 1; sign += 2) {
-      Eigen::Matrix3d r = rotation_;
-      Eigen::Vector3d t = translation_;
-      applyLeftIncrement(sign * omega, sign * delta, r, t);
-      lost += loss_at(r, t);
-    }
-    return 0.5 * lost;
+    return base_ > 0.0 ? meanEitherWay(rotation_, translation_, omega, delta, loss_at) : 0.0;
   }
 
   /** The probed samples at \a rotation, \a translation that are inliers of a surface that
@@ -344,7 +369,8 @@ verifyPose(const TargetDistributions& target,
            const Eigen::Vector3d& target_centroid,
            const Eigen::Matrix3d& target_axes,
            bool sensors_coincide,
-           int num_threads)
+           int num_threads,
+           const FinestMutualInformation& finest_mi)
 {
   Verification v;
   // The evidence at the result and the contrast probes are independent tasks. Every count
@@ -380,16 +406,29 @@ verifyPose(const TargetDistributions& target,
   // narrow view's samples much less than that about its axis of view, which left such turns
   // looking free where the surfaces hold them (docs/benchmarks.md, "Free directions moved a
   // voxel"); a turn about a tunnel's axis moves its samples along its surface, any distance.
+  Eigen::Vector3d omega[2], delta[2]; // the moves probed
   parallelFor(2, num_threads, [&](int k) {
     const Eigen::Matrix<double, 6, 1> direction = v.observability_directions.col(k);
-    const Eigen::Vector3d omega = direction.tail<3>() / radius;
-    const Eigen::Vector3d delta = direction.head<3>();
-    const double shift = probe.rmsShift(omega, delta);
+    const Eigen::Vector3d unit_omega = direction.tail<3>() / radius;
+    const Eigen::Vector3d unit_delta = direction.head<3>();
+    const double shift = probe.rmsShift(unit_omega, unit_delta);
     const double step = shift > 0.0 ? resolution / shift : resolution;
-    v.free_direction_contrast[k] = sensors_coincide
-                                       ? probe.lostAcrossEitherWay(step * omega, step * delta)
-                                       : probe.lostEitherWay(step * omega, step * delta);
+    omega[k] = step * unit_omega;
+    delta[k] = step * unit_delta;
+    v.free_direction_contrast[k] = sensors_coincide ? probe.lostAcrossEitherWay(omega[k], delta[k])
+                                                    : probe.lostEitherWay(omega[k], delta[k]);
   });
+  const double mi = mutualInformation(histogram);
+  if (finest_mi && !sensors_coincide && histogram.overlap_voxels > 0 && mi > 0.0) {
+    const Eigen::Vector3d up = target_axes.row(2).transpose(); // the input z, local
+    for (int k = 0; k < 2; ++k) {
+      const Eigen::Vector3d turn = v.observability_directions.col(k).tail<3>();
+      if (v.free_direction_contrast[k] < kFreeDirectionContrast && turn.norm() >= kTurnShare &&
+          std::abs(turn.dot(up)) <= kSwingShare * turn.norm())
+        v.free_turn_mi_loss[k] =
+            1.0 - meanEitherWay(rotation, translation, omega[k], delta[k], finest_mi) / mi;
+    }
+  }
   // Reported in the input frame: [delta, omega * radius] turn alike.
   v.observability_directions.topRows<3>() = target_axes * v.observability_directions.topRows<3>();
   v.observability_directions.bottomRows<3>() =

@@ -13,6 +13,8 @@
 
 #include <Eigen/Core>
 
+#include <functional>
+
 namespace pcl_mi {
 namespace core {
 
@@ -44,6 +46,11 @@ calibratedLogit(double z);
 void
 judge(Verification& v);
 
+/** \brief The MI on the finest grid at a source-to-target pose between the local frames
+ * (target_local = rotation * source_local + translation). */
+using FinestMutualInformation =
+    std::function<double(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation)>;
+
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
@@ -52,8 +59,10 @@ judge(Verification& v);
  * \a sensors_coincide says that the pose leaves the sensors where they were (the caller
  * decides; the engine: within a voxel, turned by less than a voxel at the source's RMS
  * radius): their scan patterns may then fall on one another, and only surfaces that a move
- * crosses count as holding the pose in the free-direction probe. It runs on up to
- * \a num_threads threads, with the same result on any number. */
+ * crosses count as holding the pose in the free-direction probe. Elsewhere a free direction
+ * that is mostly a turn tilting the source is asked of \a finest_mi, where given, which may
+ * hold it (Verification::free_turn_mi_loss). It runs on up to \a num_threads threads, with
+ * the same result on any number. */
 Verification
 verifyPose(const TargetDistributions& target,
            const SourceSamples& source,
@@ -64,7 +73,8 @@ verifyPose(const TargetDistributions& target,
            const Eigen::Vector3d& target_centroid,
            const Eigen::Matrix3d& target_axes,
            bool sensors_coincide,
-           int num_threads = 1);
+           int num_threads = 1,
+           const FinestMutualInformation& finest_mi = {});
 
 } // namespace core
 } // namespace pcl_mi
