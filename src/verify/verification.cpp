@@ -418,7 +418,7 @@ verifyPose(const TargetDistributions& target,
     v.free_direction_contrast[k] = sensors_coincide ? probe.lostAcrossEitherWay(omega[k], delta[k])
                                                     : probe.lostEitherWay(omega[k], delta[k]);
   });
-  const double mi = mutualInformation(histogram);
+  const double mi = h.mutualInformation();
   if (finest_mi && !sensors_coincide && histogram.overlap_voxels > 0 && mi > 0.0) {
     const Eigen::Vector3d up = target_axes.row(2).transpose(); // the input z, local
     for (int k = 0; k < 2; ++k) {
