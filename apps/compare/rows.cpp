@@ -22,7 +22,8 @@ constexpr std::size_t kLegacyFields = 14;
 constexpr std::size_t kPoseFields = kLegacyFields + 3 + 2 * 12;
 constexpr std::size_t kVerdictFields = kPoseFields + 7;
 constexpr std::size_t kEvidenceFields = kVerdictFields + 7; // before the lead
-constexpr std::size_t kFields = kEvidenceFields + 1;
+constexpr std::size_t kLeadFields = kEvidenceFields + 1;
+constexpr std::size_t kFields = kLeadFields + 1; // the free turns' MI loss
 } // namespace
 
 /** The first 14 columns are the original format, which readRows() still accepts; the columns
@@ -43,7 +44,7 @@ csvHeader(bool with_poses)
         h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
   h += ",confidence,sd_x_m,sd_y_m,sd_z_m,sd_roll_deg,sd_pitch_deg,sd_yaw_deg";
   h += ",search_converged,inliers,inlier_fraction,peak_contrast,weakest_contrast,normalized_mi,"
-       "free_direction_contrast,lead";
+       "free_direction_contrast,lead,free_turn_mi_loss";
   return h;
 }
 
@@ -104,7 +105,8 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
     if (line.empty() || line == legacy_header || line == header ||
         line == header.substr(0, header.find(",confidence")) ||
         line == header.substr(0, header.find(",search_converged")) ||
-        line == header.substr(0, header.find(",lead")))
+        line == header.substr(0, header.find(",lead")) ||
+        line == header.substr(0, header.find(",free_turn_mi_loss")))
       continue;
     std::vector<std::string> f;
     std::stringstream ss(line);
@@ -113,7 +115,7 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
       f.push_back(item);
     try {
       if (f.size() != kLegacyFields && f.size() != kPoseFields && f.size() != kVerdictFields &&
-          f.size() != kEvidenceFields && f.size() != kFields)
+          f.size() != kEvidenceFields && f.size() != kLeadFields && f.size() != kFields)
         throw std::invalid_argument("field count");
       Row r;
       r.sequence = f[0];

@@ -41,9 +41,10 @@ struct Row {
   double sigma[6] = {NAN, NAN, NAN, NAN, NAN, NAN};
   /** The evidence behind MI's confidence (pcl_mi::Verification), for refitting its model:
    * search converged (0/1), inliers, inlier fraction, peak contrast, weakest contrast,
-   * normalised MI, the smaller free-direction contrast and the lead of a narrow view (NaN
-   * for a 360-degree one). NaN as above; the lead also in rows of files without it. */
-  double evidence[8] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+   * normalised MI, the smaller free-direction contrast, the lead of a narrow view (NaN
+   * for a 360-degree one) and the smaller MI loss of the free turns asked of the MI (NaN
+   * where none was). NaN as above; the last two also in rows of files without them. */
+  double evidence[9] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
 };
