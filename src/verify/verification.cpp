@@ -423,7 +423,7 @@ verifyPose(const TargetDistributions& target,
     const Eigen::Vector3d up = target_axes.row(2).transpose(); // the input z, local
     for (int k = 0; k < 2; ++k) {
       const Eigen::Vector3d turn = v.observability_directions.col(k).tail<3>();
-      if (v.free_direction_contrast[k] < kFreeDirectionContrast && turn.norm() >= kTurnShare &&
+      if (isFree(v, k) && turn.norm() >= kTurnShare &&
           std::abs(turn.dot(up)) <= kSwingShare * turn.norm())
         v.free_turn_mi_loss[k] =
             1.0 - meanEitherWay(rotation, translation, omega[k], delta[k], finest_mi) / mi;
