@@ -102,6 +102,22 @@ TEST(LocalCloud, DropsNonFiniteNoReturnAndFarOutliers)
   EXPECT_NEAR(cloud.centroid.y(), 0.05 * 5050 / 101, 1e-5);
 }
 
+TEST(LocalCloud, FirstPointJustBelowTheMedianKeepsItsGroupsBounds)
+{
+  // The first point lies in the cell just below the median along x (cells of half the gap,
+  // 32 m): its run must not take 0 as its minimum, which would join the far group at 5 m
+  // (85 m below the bulk) to the bulk.
+  PointList points;
+  points.emplace_back(90.0f, 0.0f, 0.0f);
+  for (int i = 0; i < 999; ++i)
+    points.emplace_back(90.0f + 20.0f * i / 999.0f, 0.1f * (i % 10), 0.1f * (i % 7));
+  for (int i = 0; i < 3; ++i)
+    points.emplace_back(5.0f, 0.1f * i, 0.0f);
+  const LocalCloud cloud = makeLocalCloud(points, 64.0);
+  EXPECT_EQ(cloud.outliers, 3u);
+  EXPECT_EQ(cloud.points.size(), 1000u);
+}
+
 TEST(LocalCloud, KeepsFarOffsetPrecision)
 {
   // Coordinates near 1e6 m: the local frame keeps their relative layout exact in float.

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #if defined(__SSE2__)
@@ -27,6 +28,10 @@ constexpr std::size_t kMedianSamples = 4096;
 /** Cells of half a gap on either side of the median that bulkRanges() looks at: points
  * further out (2048 gaps: 131 km at 1 m voxels) are outliers whatever lies between. */
 constexpr long kHalfGapCells = 4096;
+
+/** The cell of a run before its first point: one no point lies in (cell -1, where a point
+ * just below the median lies, would take the empty run's 0 as its minimum or maximum). */
+constexpr long kNoCell = std::numeric_limits<long>::min();
 
 /** Per axis, [low, high]: the values of the largest group of \a points, where groups are
  * split wherever two consecutive values (in sorted order) are at least \a gap apart.
@@ -61,7 +66,7 @@ bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vec
   // consecutive points: each axis gathers its current run in registers and writes it to the
   // cell when the run ends, instead of every point reading back the store of the one before.
   struct Run {
-    long cell = -1; // none yet
+    long cell = kNoCell;
     std::size_t count = 0;
     float min = 0.0f, max = 0.0f;
   };
