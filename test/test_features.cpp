@@ -1,6 +1,6 @@
 /*
- * Feature values and bins on hand-built voxels; the target grid and the CPU backend's
- * joint histogram on hand-built clouds.
+ * Feature values and bins on hand-built voxels; the local cloud on hand-built and real
+ * clouds; the target grid and the CPU backend's joint histogram on hand-built clouds.
  */
 #include "backend/scoring_backend.h"
 #include "features/feature_binning.h"
@@ -10,10 +10,13 @@
 #include "features/voxel_grid.h"
 #include "util/bounding_box.h"
 
+#include "test_data.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <random>
@@ -116,6 +119,28 @@ TEST(LocalCloud, FirstPointJustBelowTheMedianKeepsItsGroupsBounds)
   const LocalCloud cloud = makeLocalCloud(points, 64.0);
   EXPECT_EQ(cloud.outliers, 3u);
   EXPECT_EQ(cloud.points.size(), 1000u);
+}
+
+TEST(LocalCloud, FarOutliersDoNotDependOnThePointsOrder)
+{
+  // A real scan with two far groups, in its sweep order (long runs of points in one cell,
+  // taken four at a time) and shuffled (runs of one point): the same points are dropped.
+  PointList points = test_data::pointList(*test_data::loadScan("00", 0));
+  ASSERT_GT(points.size(), 100000u);
+  const std::size_t bulk = points.size();
+  for (int i = 0; i < 50; ++i) {
+    points.emplace_back(300.0f + i, 0.5f * i, 1.0f);
+    points.emplace_back(-20.0f, 0.1f * i, -200.0f);
+  }
+  const LocalCloud ordered = makeLocalCloud(points, 64.0);
+  EXPECT_EQ(ordered.outliers, 100u);
+  EXPECT_EQ(ordered.points.size(), bulk);
+  std::mt19937 random(7);
+  std::shuffle(points.begin(), points.end(), random);
+  const LocalCloud shuffled = makeLocalCloud(points, 64.0);
+  EXPECT_EQ(shuffled.outliers, ordered.outliers);
+  EXPECT_EQ(shuffled.points.size(), ordered.points.size());
+  EXPECT_NEAR((shuffled.centroid - ordered.centroid).norm(), 0.0, 1e-6);
 }
 
 TEST(LocalCloud, KeepsFarOffsetPrecision)

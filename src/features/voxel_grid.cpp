@@ -80,7 +80,7 @@ bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vec
     c.max = c.count ? std::max(c.max, r.max) : r.max;
     c.count += r.count;
   };
-  for (const auto& p : points)
+  const auto add = [&](const Eigen::Vector3f& p) {
     for (int axis = 0; axis < 3; ++axis) {
       // floor(d) within [-kHalfGapCells, kHalfGapCells] exactly when d lies in
       // [-kHalfGapCells, kHalfGapCells + 1); inside it, truncation corrected below zero is
@@ -100,6 +100,49 @@ bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vec
       r.max = std::max(r.max, v);
       ++r.count;
     }
+  };
+  std::size_t i = 0;
+#if defined(__SSE2__)
+  // Most blocks of four consecutive points lie in their runs' cells on every axis. Such a
+  // block joins the runs at once: d is computed two points at a time as add() computes it,
+  // and lies in run cell k exactly when k <= d < k + 1 (no point is in kNoCell). Any other
+  // block goes point by point. The runs' minima and maxima are the same values either way.
+  const __m128d scale = _mm_set1_pd(inv_width);
+  const auto inRun = [](__m128d d, __m128d cell, __m128d next) {
+    return _mm_and_pd(_mm_cmple_pd(cell, d), _mm_cmplt_pd(d, next));
+  };
+  for (; i + 4 <= points.size(); i += 4) {
+    const Eigen::Vector3f* p = points.data() + i;
+    __m128 values[3];
+    bool joined = true;
+    for (int axis = 0; axis < 3 && joined; ++axis) {
+      const __m128 v = _mm_setr_ps(p[0][axis], p[1][axis], p[2][axis], p[3][axis]);
+      const __m128d centre = _mm_set1_pd(median[axis]);
+      const double run = static_cast<double>(runs[axis].cell);
+      const __m128d cell = _mm_set1_pd(run), next = _mm_set1_pd(run + 1.0);
+      const __m128d d01 = _mm_mul_pd(_mm_sub_pd(_mm_cvtps_pd(v), centre), scale);
+      const __m128d d23 = _mm_mul_pd(_mm_sub_pd(_mm_cvtps_pd(_mm_movehl_ps(v, v)), centre), scale);
+      joined = _mm_movemask_pd(_mm_and_pd(inRun(d01, cell, next), inRun(d23, cell, next))) == 3;
+      values[axis] = v;
+    }
+    if (!joined) {
+      for (int k = 0; k < 4; ++k)
+        add(p[k]);
+      continue;
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      const __m128 v = values[axis];
+      const __m128 low = _mm_min_ps(v, _mm_movehl_ps(v, v));
+      const __m128 high = _mm_max_ps(v, _mm_movehl_ps(v, v));
+      Run& r = runs[axis];
+      r.min = std::min(r.min, _mm_cvtss_f32(_mm_min_ss(low, _mm_shuffle_ps(low, low, 1))));
+      r.max = std::max(r.max, _mm_cvtss_f32(_mm_max_ss(high, _mm_shuffle_ps(high, high, 1))));
+      r.count += 4;
+    }
+  }
+#endif
+  for (; i < points.size(); ++i)
+    add(points[i]);
   for (int axis = 0; axis < 3; ++axis)
     flush(axis);
   for (int axis = 0; axis < 3; ++axis) {
