@@ -389,6 +389,32 @@ TEST(TargetDistributions, FindBlockGivesFindsAnswers)
   EXPECT_LT(found, passes * queries.size());
 }
 
+TEST(TargetDistributions, StripsFindTheSameNeighboursInAnyOrderOfTheCubes)
+{
+  // A real scan's cubes as makeSourceSamples() lists them (in the order of their cells, where
+  // the strips' neighbourhoods are read in sequence) and shuffled (where they are looked up
+  // by hash): every cube's distribution and normal are the same to the bit.
+  const SourceSamples listed = makeSourceSamples(bundledScan(), 0.7);
+  SourceSamples shuffled = listed;
+  std::mt19937 random(11);
+  std::shuffle(shuffled.samples.begin(), shuffled.samples.end(), random);
+  const TargetDistributions in_order(listed, 4, 0.05), in_any_order(shuffled, 4, 0.05);
+  ASSERT_GT(in_order.size(), 1000u);
+  ASSERT_EQ(in_any_order.size(), in_order.size());
+  std::size_t compared = 0;
+  for (std::size_t i = 0; i < in_order.size(); ++i) {
+    const auto& a = in_order[static_cast<int>(i)];
+    const int k = in_any_order.find(a.mean);
+    ASSERT_GE(k, 0);
+    const auto& b = in_any_order[k];
+    ASSERT_EQ(b.mean, a.mean);
+    EXPECT_EQ(b.information, a.information) << "cube " << i;
+    EXPECT_EQ(b.normal, a.normal) << "cube " << i;
+    ++compared;
+  }
+  EXPECT_EQ(compared, in_order.size());
+}
+
 TEST(TargetDistributions, SparseCubesPullTheRefinementButAreNoEvidence)
 {
   // A floor of 0.7 m cubes, dense but for the centre cube, which holds two points: it takes

@@ -148,36 +148,109 @@ findSlot(const Slots& slots, std::uint64_t mask, std::uint64_t key)
   return findSlotFrom(slots, mask, key, firstSlot(mask, key));
 }
 
-/** Covariance of the points of the 3x3x3 cells around \a centre's (cell moments pooled). */
+/** The 3x3x3 neighbourhoods of cells, found by the keys of their summaries' cells.
+ * makeSourceSamples() lists the cells in the order of their keys (z, then y, then x), and a
+ * summary's mean lies in its own cell. Then, for cells visited in that order, each row of
+ * the neighbourhood is found by a cursor that only moves forward through the keys: nine
+ * cursors read the keys once in sequence, where looking each neighbour up in a hash table
+ * waits on a random read. Cells listed otherwise (keys that do not rise strictly) are looked
+ * up in a hash table of every key; both find the same cells. */
+class CellNeighbours {
+public:
+  CellNeighbours(const SourceSamples& cells, float inv_cell)
+  : cells_(cells), inv_cell_(inv_cell)
+  {
+    keys_.reserve(cells.samples.size());
+    bool rising = true;
+    for (const SourceSample& s : cells.samples) {
+      const Eigen::Vector3f c = cellCoordinates(s.position, cells.grid_origin, inv_cell);
+      const bool inside =
+          (c.array() >= 0.0f).all() && (c.array() < static_cast<float>(kKeyLimit)).all();
+      const std::uint64_t key =
+          inside ? packCell(static_cast<std::uint64_t>(c.x()), static_cast<std::uint64_t>(c.y()),
+                            static_cast<std::uint64_t>(c.z()))
+                 : 0;
+      rising = rising && inside && (keys_.empty() || key > keys_.back());
+      keys_.push_back(inside ? key : kOutside);
+    }
+    if (rising)
+      return;
+    mask_ = makeSlots(slots_, keys_.size());
+    for (std::size_t i = 0; i < keys_.size(); ++i)
+      if (keys_[i] != kOutside)
+        insertSlot(slots_, mask_, keys_[i], static_cast<std::int32_t>(i));
+  }
+
+  /** Calls \a visit(sample) for each cell of the 3x3x3 cells around sample \a i's (its own
+   * included), in the order z, then y, then x. Where the keys rise, \a i must not fall from
+   * one call to the next. */
+  template <typename Visit>
+  void
+  forEach(std::size_t i, const Visit& visit)
+  {
+    const Eigen::Vector3i cell =
+        cellCoordinates(cells_.samples[i].position, cells_.grid_origin, inv_cell_).cast<int>();
+    const auto valid = [](int v) { return v >= 0 && v < static_cast<int>(kKeyLimit); };
+    const auto key = [](int x, int y, int z) {
+      return packCell(static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y),
+                      static_cast<std::uint64_t>(z));
+    };
+    std::size_t* cursor = cursors_;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy, ++cursor) {
+        const int y = cell.y() + dy, z = cell.z() + dz;
+        if (!valid(y) || !valid(z))
+          continue;
+        if (slots_.empty()) {
+          // The row's cells from the first key at or after its first neighbour's.
+          std::size_t& at = *cursor;
+          const std::uint64_t first = key(std::max(cell.x() - 1, 0), y, z);
+          while (at < keys_.size() && keys_[at] < first)
+            ++at;
+          const std::uint64_t last = key(std::min(cell.x() + 1, kLastKeyCell), y, z);
+          for (std::size_t q = at; q < keys_.size() && keys_[q] <= last; ++q)
+            visit(cells_.samples[q]);
+          continue;
+        }
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int x = cell.x() + dx;
+          const int index = valid(x) ? findSlot(slots_, mask_, key(x, y, z)) : -1;
+          if (index >= 0)
+            visit(cells_.samples[static_cast<std::size_t>(index)]);
+        }
+      }
+  }
+
+private:
+  /** The key of a summary outside the keys' reach: never looked up, never found. */
+  static constexpr std::uint64_t kOutside = ~std::uint64_t{0};
+  /** The last cell of an axis that a key holds. */
+  static constexpr int kLastKeyCell = static_cast<int>(kKeyLimit) - 1;
+
+  const SourceSamples& cells_;
+  float inv_cell_;
+  std::vector<std::uint64_t> keys_;
+  Slots slots_; // empty where the keys rise
+  std::uint64_t mask_ = 0;
+  std::size_t cursors_[9] = {};
+};
+
+/** Covariance of the points of the 3x3x3 cells around sample \a i's (cell moments pooled). */
 Eigen::Matrix3d
-neighbourhoodCovariance(const SourceSamples& cells,
-                        const Slots& cell_slots,
-                        std::uint64_t cell_mask,
-                        const SourceSample& centre,
-                        float inv_cell)
+neighbourhoodCovariance(const SourceSamples& cells, CellNeighbours& neighbours, std::size_t i)
 {
   // Moments about the centre cube's mean, which keeps the sums well conditioned.
+  const SourceSample& centre = cells.samples[i];
   double count = 0.0;
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
-  const Eigen::Vector3f c = cellCoordinates(centre.position, cells.grid_origin, inv_cell);
-  const Eigen::Vector3i cell = c.cast<int>();
-  for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const Eigen::Vector3i n = cell + Eigen::Vector3i(dx, dy, dz);
-        if ((n.array() < 0).any() || (n.array() >= static_cast<int>(kKeyLimit)).any())
-          continue;
-        const int index = findSlot(cell_slots, cell_mask, packCell(n.x(), n.y(), n.z()));
-        if (index < 0)
-          continue;
-        const SourceSample& o = cells.samples[static_cast<std::size_t>(index)];
-        const double w = o.count;
-        const Eigen::Vector3d d = (o.position - centre.position).cast<double>();
-        count += w;
-        sum += w * d;
-        second += w * (covarianceOf(o) + d * d.transpose());
-      }
+  neighbours.forEach(i, [&](const SourceSample& o) {
+    const double w = o.count;
+    const Eigen::Vector3d d = (o.position - centre.position).cast<double>();
+    count += w;
+    sum += w * d;
+    second += w * (covarianceOf(o) + d * d.transpose());
+  });
   const Eigen::Vector3d mean = sum / count;
   return second / count - mean * mean.transpose();
 }
@@ -215,20 +288,14 @@ TargetDistributions::TargetDistributions(const SourceSamples& cells,
   // the statistics needed here, and its grid origin is where keyOf() must start.
   const double cell_size = cell_size_;
 
-  // Every cell by key, sparse ones included: the neighbourhood of a strip pools them all.
-  Slots cell_slots;
-  const std::uint64_t cell_mask = makeSlots(cell_slots, cells.samples.size());
-  for (std::size_t i = 0; i < cells.samples.size(); ++i) {
-    bool inside = false;
-    const std::uint64_t key = keyOf(cells.samples[i].position, inside);
-    if (inside)
-      insertSlot(cell_slots, cell_mask, key, static_cast<std::int32_t>(i));
-  }
+  // Every cell, sparse ones included: the neighbourhood of a strip pools them all.
+  CellNeighbours neighbours(cells, inv_cell_);
 
   const float noise = static_cast<float>(noise_sigma * noise_sigma);
   const double in_surface_floor = 0.25 * cell_size * cell_size;
   const double strip_variance_ratio = kStripSpreadRatio * kStripSpreadRatio;
-  for (const SourceSample& s : cells.samples) {
+  for (std::size_t i = 0; i < cells.samples.size(); ++i) {
+    const SourceSample& s = cells.samples[i];
     if (s.count < static_cast<std::uint32_t>(std::max(min_points, 1)))
       continue;
     const Eigen::Matrix3d c = covarianceOf(s);
@@ -241,8 +308,7 @@ TargetDistributions::TargetDistributions(const SourceSamples& cells,
       // A strip fixes no plane. Take the orientation of the points of its 3x3x3 cubes,
       // which span more scan lines, when those are less strip-like than the cube itself,
       // and keep the cube's own spread along the pooled normal.
-      const auto pooled =
-          principalAxes(neighbourhoodCovariance(cells, cell_slots, cell_mask, s, inv_cell_));
+      const auto pooled = principalAxes(neighbourhoodCovariance(cells, neighbours, i));
       const Eigen::Vector3d& pooled_spread = pooled.eigenvalues();
       if (pooled_spread[1] * spread[2] > spread[1] * pooled_spread[2]) {
         normal = pooled.eigenvectors().col(0);
