@@ -17,7 +17,9 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <random>
 
@@ -396,6 +398,34 @@ TEST(SourceSamples, SummariseCellsByCountCentroidAndCovariance)
   const SourceSamples exact = makeSourceSamples(points, 0.0);
   EXPECT_EQ(exact.samples.size(), 4u);
   EXPECT_FALSE(exact.has_covariance);
+}
+
+TEST(SourceSamples, EachSummaryHoldsTheSamePointsAsItsCell)
+{
+  // A real scan (its local cloud) in cubes of 0.35 m, counted point by point with floor()
+  // of cellCoordinates() against the summaries, which compute the cells four points at a
+  // time: the same cells, the same counts, listed in the order of z, then y, then x.
+  const PointList points = makeLocalCloud(test_data::pointList(*test_data::loadScan("00", 0)),
+                                          64.0)
+                               .points;
+  const double cell = 0.35;
+  const SourceSamples s = makeSourceSamples(points, cell);
+  const auto cellOf = [&](const Eigen::Vector3f& p) {
+    const Eigen::Vector3f c =
+        cellCoordinates(p, s.grid_origin, static_cast<float>(1.0 / cell)).array().floor();
+    return std::array<long, 3>{static_cast<long>(c.z()), static_cast<long>(c.y()),
+                               static_cast<long>(c.x())};
+  };
+  std::map<std::array<long, 3>, std::uint32_t> counted;
+  for (const auto& p : points)
+    ++counted[cellOf(p)];
+  ASSERT_EQ(s.samples.size(), counted.size());
+  auto expected = counted.begin();
+  for (const SourceSample& sample : s.samples) {
+    EXPECT_EQ(cellOf(sample.position), expected->first);
+    EXPECT_EQ(sample.count, expected->second);
+    ++expected;
+  }
 }
 
 TEST(SourceSamples, MatchPerPointEvaluationWhenCellsSitInsideVoxels)

@@ -8,6 +8,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace pcl_mi {
 namespace core {
 
@@ -64,20 +68,24 @@ bitsFor(std::uint64_t max_value)
  * wider ones (very fine cells over a large extent) are kept beside it. */
 class SortedCells {
 public:
-  /** Sorts the indices 0 .. count - 1 by key_of(index), keys below 2^bits. */
-  template <typename KeyOf>
-  SortedCells(std::size_t count, int bits, const KeyOf& key_of)
+  /** Sorts the indices 0 .. count - 1 by keys(index), keys below 2^bits; keys.packFour(i,
+   * out) writes key << 32 | index for indices i .. i + 3 as keys(index) gives them. */
+  template <typename Keys>
+  SortedCells(std::size_t count, int bits, const Keys& keys)
   {
     if (bits <= 32) {
       packed_.resize(count);
-      for (std::size_t i = 0; i < count; ++i)
-        packed_[i] = key_of(i) << 32 | static_cast<std::uint64_t>(i);
+      std::size_t i = 0;
+      for (; i + 4 <= count; i += 4)
+        keys.packFour(i, packed_.data() + i);
+      for (; i < count; ++i)
+        packed_[i] = keys(i) << 32 | static_cast<std::uint64_t>(i);
       radixSort(packed_, bits, [](std::uint64_t v) { return v >> 32; });
       return;
     }
     wide_.resize(count);
     for (std::size_t i = 0; i < count; ++i)
-      wide_[i] = {key_of(i), static_cast<std::uint32_t>(i)};
+      wide_[i] = {keys(i), static_cast<std::uint32_t>(i)};
     radixSort(wide_, bits, [](const std::pair<std::uint64_t, std::uint32_t>& v) { return v.first; });
   }
 
@@ -102,10 +110,91 @@ private:
   std::vector<std::pair<std::uint64_t, std::uint32_t>> wide_;
 };
 
-/** Cell coordinates of \a count positions (cubes of edge \a cell_size from \a min; \a max
- * bounds the positions), packed into keys ordered z, then y, then x with as few bits per
- * axis as the extent needs, and sorted. Coordinates are capped at 2^21 - 1 cells per
- * axis. The cells are cellCoordinates()'s, the same as TargetDistributions'. */
+/** The keys of the cells of positions (cubes of edge 1 / inv_cell from min), ordered z, then
+ * y, then x with as few bits per axis as the extent needs. Coordinates are capped at
+ * 2^21 - 1 cells per axis. The cells are cellCoordinates()'s, the same as
+ * TargetDistributions'. */
+template <typename PositionOf>
+class CellKeys {
+public:
+  /** \a max bounds the positions. */
+  CellKeys(const PositionOf& position_of,
+           const Eigen::Vector3f& min,
+           const Eigen::Vector3f& max,
+           double cell_size)
+  : position_of_(position_of), min_(min), inv_cell_(static_cast<float>(1.0 / cell_size))
+  {
+    // Cells grow monotonically with the position: the box's far corner has the largest.
+    const Eigen::Matrix<std::uint64_t, 3, 1> max_cell = cellOf(max);
+    shift_y_ = bitsFor(max_cell.x());
+    shift_z_ = shift_y_ + bitsFor(max_cell.y());
+    bits_ = shift_z_ + bitsFor(max_cell.z());
+  }
+
+  /** Bits the keys need. */
+  int
+  bits() const
+  {
+    return bits_;
+  }
+
+  std::uint64_t
+  operator()(std::size_t i) const
+  {
+    const auto cell = cellOf(position_of_(i));
+    return (cell.z() << shift_z_) | (cell.y() << shift_y_) | cell.x();
+  }
+
+  /** key(i + k) << 32 | (i + k) into \a out[k] for k = 0 .. 3, keys of at most 32 bits. Where
+   * SSE2 is there, the four cells are computed at once, each lane rounding as cellOf() does. */
+  void
+  packFour(std::size_t i, std::uint64_t* out) const
+  {
+#if defined(__SSE2__)
+    const Eigen::Vector3f* p[4] = {&position_of_(i), &position_of_(i + 1), &position_of_(i + 2),
+                                   &position_of_(i + 3)};
+    const __m128 zero = _mm_setzero_ps(), cap = _mm_set1_ps(kCap);
+    const __m128 inv = _mm_set1_ps(inv_cell_);
+    __m128i cell[3];
+    for (int a = 0; a < 3; ++a) {
+      const __m128 v = _mm_setr_ps((*p[0])[a], (*p[1])[a], (*p[2])[a], (*p[3])[a]);
+      const __m128 c = _mm_mul_ps(_mm_sub_ps(v, _mm_set1_ps(min_[a])), inv);
+      cell[a] = _mm_cvttps_epi32(_mm_min_ps(_mm_max_ps(c, zero), cap));
+    }
+    const __m128i key = _mm_or_si128(
+        _mm_or_si128(_mm_sll_epi32(cell[2], _mm_cvtsi32_si128(shift_z_)),
+                     _mm_sll_epi32(cell[1], _mm_cvtsi32_si128(shift_y_))),
+        cell[0]);
+    const int first = static_cast<int>(i);
+    const __m128i index = _mm_setr_epi32(first, first + 1, first + 2, first + 3);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out), _mm_unpacklo_epi32(index, key));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 2), _mm_unpackhi_epi32(index, key));
+#else
+    for (std::size_t k = 0; k < 4; ++k)
+      out[k] = (*this)(i + k) << 32 | static_cast<std::uint64_t>(i + k);
+#endif
+  }
+
+private:
+  static constexpr float kCap = static_cast<float>((1 << 21) - 1);
+
+  Eigen::Matrix<std::uint64_t, 3, 1>
+  cellOf(const Eigen::Vector3f& p) const
+  {
+    const Eigen::Vector3f c = cellCoordinates(p, min_, inv_cell_).cwiseMax(0.0f).cwiseMin(kCap);
+    return Eigen::Matrix<std::uint64_t, 3, 1>(static_cast<std::uint64_t>(c.x()),
+                                              static_cast<std::uint64_t>(c.y()),
+                                              static_cast<std::uint64_t>(c.z()));
+  }
+
+  const PositionOf& position_of_;
+  Eigen::Vector3f min_;
+  float inv_cell_;
+  int shift_y_ = 0, shift_z_ = 0, bits_ = 0;
+};
+
+/** Indices 0 .. count - 1 sorted by the keys of the cells (cubes of edge \a cell_size from
+ * \a min; \a max bounds the positions) of position_of(index): see CellKeys. */
 template <typename PositionOf>
 SortedCells
 sortedCellKeys(std::size_t count,
@@ -114,21 +203,8 @@ sortedCellKeys(std::size_t count,
                const Eigen::Vector3f& max,
                double cell_size)
 {
-  const float inv_cell = static_cast<float>(1.0 / cell_size);
-  constexpr float kCap = static_cast<float>((1 << 21) - 1);
-  auto cellOf = [&](const Eigen::Vector3f& p) {
-    const Eigen::Vector3f c = cellCoordinates(p, min, inv_cell).cwiseMax(0.0f).cwiseMin(kCap);
-    return Eigen::Matrix<std::uint64_t, 3, 1>(static_cast<std::uint64_t>(c.x()),
-                                              static_cast<std::uint64_t>(c.y()),
-                                              static_cast<std::uint64_t>(c.z()));
-  };
-  // Cells grow monotonically with the position: the box's far corner has the largest.
-  const Eigen::Matrix<std::uint64_t, 3, 1> max_cell = cellOf(max);
-  const int bx = bitsFor(max_cell.x()), by = bitsFor(max_cell.y()), bz = bitsFor(max_cell.z());
-  return SortedCells(count, bx + by + bz, [&](std::size_t i) {
-    const auto cell = cellOf(position_of(i));
-    return (cell.z() << (bx + by)) | (cell.y() << bx) | cell.x();
-  });
+  const CellKeys<PositionOf> keys(position_of, min, max, cell_size);
+  return SortedCells(count, keys.bits(), keys);
 }
 
 /** Sums of the offsets d of points (or weighted samples) from an anchor and of their
