@@ -165,8 +165,11 @@ public:
         _mm_or_si128(_mm_sll_epi32(cell[2], _mm_cvtsi32_si128(shift_z_)),
                      _mm_sll_epi32(cell[1], _mm_cvtsi32_si128(shift_y_))),
         cell[0]);
-    const int first = static_cast<int>(i);
-    const __m128i index = _mm_setr_epi32(first, first + 1, first + 2, first + 3);
+    // The indices' low 32 bits, as the scalar packing keeps them.
+    const auto first = static_cast<std::uint32_t>(i);
+    const __m128i index =
+        _mm_setr_epi32(static_cast<int>(first), static_cast<int>(first + 1u),
+                       static_cast<int>(first + 2u), static_cast<int>(first + 3u));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out), _mm_unpacklo_epi32(index, key));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 2), _mm_unpackhi_epi32(index, key));
 #else

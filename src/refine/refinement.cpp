@@ -169,9 +169,9 @@ public:
       const std::uint64_t key =
           inside ? packCell(static_cast<std::uint64_t>(c.x()), static_cast<std::uint64_t>(c.y()),
                             static_cast<std::uint64_t>(c.z()))
-                 : 0;
+                 : kOutside;
       rising = rising && inside && (keys_.empty() || key > keys_.back());
-      keys_.push_back(inside ? key : kOutside);
+      keys_.push_back(key);
     }
     if (rising)
       return;
