@@ -90,16 +90,18 @@ takeCandidate(AlignmentResult&& other,
   result.verification = std::move(other.verification);
 }
 
-/** True where \a pose puts the source's sensor within a voxel of the target's and turns it
- * by less than the verdict's probes do (a voxel at the source's RMS radius): the input
- * frames' origins and axes stand for the sensors, as for the azimuth coverage. */
+/** True where \a pose puts the source's sensor within a voxel of the target's and tilts its
+ * vertical axis by less than the verdict's probes turn it (a voxel at the source's RMS
+ * radius), whatever its heading: the input frames' origins and axes stand for the sensors,
+ * as for the azimuth coverage. A spinning LiDAR's rings are cones about that axis, which
+ * fall on themselves turned about it by any angle. */
 bool
 sensorsCoincide(const PreparedProblem& problem, const Eigen::Matrix4d& pose)
 {
   const double resolution = problem.levelResolution(0);
-  const double turn = Eigen::AngleAxisd(Eigen::Matrix3d(pose.topLeftCorner<3, 3>())).angle();
+  const double tilt = std::acos(std::clamp(pose(2, 2), -1.0, 1.0)); // z onto z
   return pose.topRightCorner<3, 1>().norm() < resolution &&
-         turn * std::max(problem.source().rms_radius, resolution) < resolution;
+         tilt * std::max(problem.source().rms_radius, resolution) < resolution;
 }
 
 } // namespace
