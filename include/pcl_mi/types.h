@@ -123,9 +123,10 @@ struct Verification {
   /** Share of the inliers lost by moving the result either way along each of the two least
    * observable directions, so far that the samples move one voxel (root mean square); below
    * 0.05 the direction counts as free (degenerate). Where the result leaves the sensors
-   * where they were (within a voxel, and turned by less than a voxel at the source's RMS
-   * radius; the input frames' origins and axes stand for them), only inliers on surfaces
-   * that the move crosses count: the scan patterns then fall on one another by themselves. */
+   * where they were (within a voxel, the vertical axis tilted by less than a voxel at the
+   * source's RMS radius, any heading; the input frames' origins and axes stand for them),
+   * only inliers on surfaces that the move crosses count: the scan patterns then fall on one
+   * another by themselves. */
   double free_direction_contrast[2] = {0.0, 0.0};
   /** For each of those two directions that the contrast leaves free and that is mostly a turn
    * tilting the source (about an axis at least 60 degrees from the input frame's z), the

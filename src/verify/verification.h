@@ -57,12 +57,12 @@ using FinestMutualInformation =
  * in the target's input frame (input = centroid + axes * local), in which the covariance
  * (about the input frame's origin) and the observability directions are given.
  * \a sensors_coincide says that the pose leaves the sensors where they were (the caller
- * decides; the engine: within a voxel, turned by less than a voxel at the source's RMS
- * radius): their scan patterns may then fall on one another, and only surfaces that a move
- * crosses count as holding the pose in the free-direction probe. Elsewhere a free direction
- * that is mostly a turn tilting the source is asked of \a finest_mi, where given, which may
- * hold it (Verification::free_turn_mi_loss). It runs on up to \a num_threads threads, with
- * the same result on any number. */
+ * decides; the engine: within a voxel, the vertical axis tilted by less than a voxel at the
+ * source's RMS radius, any heading): their scan patterns may then fall on one another, and
+ * only surfaces that a move crosses count as holding the pose in the free-direction probe.
+ * Elsewhere a free direction that is mostly a turn tilting the source is asked of
+ * \a finest_mi, where given, which may hold it (Verification::free_turn_mi_loss). It runs on
+ * up to \a num_threads threads, with the same result on any number. */
 Verification
 verifyPose(const TargetDistributions& target,
            const SourceSamples& source,
