@@ -148,6 +148,19 @@ findSlot(const Slots& slots, std::uint64_t mask, std::uint64_t key)
   return findSlotFrom(slots, mask, key, firstSlot(mask, key));
 }
 
+/** Hash key of the cube of edge 1 / \a inv_cell from \a origin that holds \a p; 0 and
+ * \a inside false where the cube lies beyond the keys' reach. */
+std::uint64_t
+cellKey(const Eigen::Vector3f& p, const Eigen::Vector3f& origin, float inv_cell, bool& inside)
+{
+  const Eigen::Vector3f c = cellCoordinates(p, origin, inv_cell);
+  inside = (c.array() >= 0.0f).all() && (c.array() < static_cast<float>(kKeyLimit)).all();
+  if (!inside)
+    return 0;
+  return packCell(static_cast<std::uint64_t>(c.x()), static_cast<std::uint64_t>(c.y()),
+                  static_cast<std::uint64_t>(c.z()));
+}
+
 /** The 3x3x3 neighbourhoods of cells, found by the keys of their summaries' cells.
  * makeSourceSamples() lists the cells in the order of their keys (z, then y, then x), and a
  * summary's mean lies in its own cell. Then, for cells visited in that order, each row of
@@ -163,15 +176,10 @@ public:
     keys_.reserve(cells.samples.size());
     bool rising = true;
     for (const SourceSample& s : cells.samples) {
-      const Eigen::Vector3f c = cellCoordinates(s.position, cells.grid_origin, inv_cell);
-      const bool inside =
-          (c.array() >= 0.0f).all() && (c.array() < static_cast<float>(kKeyLimit)).all();
-      const std::uint64_t key =
-          inside ? packCell(static_cast<std::uint64_t>(c.x()), static_cast<std::uint64_t>(c.y()),
-                            static_cast<std::uint64_t>(c.z()))
-                 : kOutside;
+      bool inside = false;
+      const std::uint64_t key = cellKey(s.position, cells.grid_origin, inv_cell, inside);
       rising = rising && inside && (keys_.empty() || key > keys_.back());
-      keys_.push_back(key);
+      keys_.push_back(inside ? key : kOutside);
     }
     if (rising)
       return;
@@ -260,12 +268,7 @@ neighbourhoodCovariance(const SourceSamples& cells, CellNeighbours& neighbours, 
 std::uint64_t
 TargetDistributions::keyOf(const Eigen::Vector3f& p, bool& inside) const
 {
-  const Eigen::Vector3f c = cellCoordinates(p, origin_, inv_cell_);
-  inside = (c.array() >= 0.0f).all() && (c.array() < static_cast<float>(kKeyLimit)).all();
-  if (!inside)
-    return 0;
-  return packCell(static_cast<std::uint64_t>(c.x()), static_cast<std::uint64_t>(c.y()),
-                  static_cast<std::uint64_t>(c.z()));
+  return cellKey(p, origin_, inv_cell_, inside);
 }
 
 TargetDistributions::TargetDistributions(const PointList& points,
