@@ -208,7 +208,8 @@ BM_Verification(benchmark::State& state)
     benchmark::DoNotOptimize(pcl_mi::core::verifyPose(
         problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
         problem.levelResolution(0), histogram, problem.target().centroid,
-        problem.targetAxes(), false, problem.parameters().num_threads));
+        problem.targetAxes(), pcl_mi::core::SensorPlacement::kApart,
+        problem.parameters().num_threads));
 }
 BENCHMARK(BM_Verification)->Unit(benchmark::kMillisecond);
 

@@ -298,9 +298,10 @@ TEST(Verification, TargetAxesTurnTheReportedCovarianceAndDirections)
   const Eigen::Vector3d shift(0.2, -0.1, 0.05);
   const Verification level = verifyPose(target, source, Eigen::Matrix3d::Identity(), shift, 1.0,
                                         histogram, Eigen::Vector3d::Zero(),
-                                        Eigen::Matrix3d::Identity(), false);
+                                        Eigen::Matrix3d::Identity(), SensorPlacement::kApart);
   const Verification turned = verifyPose(target, source, Eigen::Matrix3d::Identity(), shift, 1.0,
-                                         histogram, Eigen::Vector3d::Zero(), axes, false);
+                                         histogram, Eigen::Vector3d::Zero(), axes,
+                                         SensorPlacement::kApart);
   ASSERT_GT(level.covariance.norm(), 0.0);
   Eigen::Matrix<double, 6, 6> turn = Eigen::Matrix<double, 6, 6>::Zero();
   turn.topLeftCorner<3, 3>() = turn.bottomRightCorner<3, 3>() = axes;

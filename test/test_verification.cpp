@@ -280,28 +280,36 @@ TEST(Verification, ATiltedCorridorIsDegenerateAlongItsLengthInTheInputFrame)
 // that for a surface.
 namespace {
 
-/** The road below, scanned by the sensor turned by \a heading_deg about its vertical axis. */
+/** The road below, scanned by the sensor turned by \a heading_deg about its vertical axis and
+ * then tilted by \a roll_deg about its axis of view, over \a view_deg of azimuth. */
 Cloud::Ptr
-ringScannedRoad(unsigned seed, float heading_deg = 0.0f)
+ringScannedRoad(unsigned seed, float heading_deg = 0.0f, float roll_deg = 0.0f,
+                float view_deg = 70.0f)
 {
   std::mt19937 rng(seed);
   std::normal_distribution<float> noise(0.0f, 0.01f);
   auto scan = pcl::make_shared<Cloud>();
   const float height = 1.7f, barrier = 6.0f, barrier_top = 1.0f - height;
-  const float heading = heading_deg * static_cast<float>(M_PI) / 180.0f;
+  const float degree = static_cast<float>(M_PI) / 180.0f;
+  // Sensor to road axes: the barriers run along x.
+  const Eigen::Matrix3f to_road =
+      (Eigen::AngleAxisf(heading_deg * degree, Eigen::Vector3f::UnitZ()) *
+       Eigen::AngleAxisf(roll_deg * degree, Eigen::Vector3f::UnitX()))
+          .toRotationMatrix();
   for (int ring = 0; ring < 16; ++ring) {
-    const float elevation = (-15.0f + ring * (13.0f / 15.0f)) * static_cast<float>(M_PI) / 180.0f;
-    for (float a = -35.0f; a <= 35.0f; a += 0.2f) {
-      const float azimuth = a * static_cast<float>(M_PI) / 180.0f;
+    const float elevation = (-15.0f + ring * (13.0f / 15.0f)) * degree;
+    for (float a = -0.5f * view_deg; a <= 0.5f * view_deg; a += 0.2f) {
+      const float azimuth = a * degree;
       const Eigen::Vector3f ray(std::cos(elevation) * std::cos(azimuth),
                                 std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
-      // The ray along the road's axes: the barriers run along x.
-      const float across = std::cos(elevation) * std::sin(azimuth + heading);
-      float range = -height / ray.z(); // the ground
-      if (across != 0.0f) {
-        const float to_barrier = barrier / std::abs(across);
-        if (to_barrier < range && ray.z() * to_barrier >= -height &&
-            ray.z() * to_barrier <= barrier_top)
+      const Eigen::Vector3f along_road = to_road * ray;
+      if (along_road.z() >= 0.0f)
+        continue;
+      float range = -height / along_road.z(); // the ground
+      if (along_road.y() != 0.0f) {
+        const float to_barrier = barrier / std::abs(along_road.y());
+        if (to_barrier < range && along_road.z() * to_barrier >= -height &&
+            along_road.z() * to_barrier <= barrier_top)
           range = to_barrier;
       }
       if (range > 40.0f)
@@ -333,6 +341,17 @@ TEST(Verification, ARingScannedRoadIsDegenerateAlongItWhereTheTurnedRingsMeet)
   expectNotTrusted(reg, "degenerate along x");
   const Eigen::Matrix4d pose = reg.getFinalTransformation().cast<double>();
   EXPECT_NEAR(std::atan2(pose(1, 0), pose(0, 0)) * 180.0 / M_PI, 10.0, 0.5); // the turn is seen
+}
+
+// The same road scanned all around, with the source's sensor tilted by 5 deg in roll: its
+// rings no longer fall on the target's, but both scans' patterns are still centred where
+// the sensors stand at one place, and a shift along the road moves one off the other.
+TEST(Verification, ARingScannedRoadIsDegenerateAlongItWhereTheTiltedSensorsMeet)
+{
+  Registration reg;
+  alignDefaults(reg, ringScannedRoad(2, 0.0f, 5.0f, 360.0f),
+                ringScannedRoad(1, 0.0f, 0.0f, 360.0f));
+  expectNotTrusted(reg, "degenerate along x");
 }
 
 // A sensor that stood still: a real street scan against its own other half (every second

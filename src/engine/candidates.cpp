@@ -90,18 +90,23 @@ takeCandidate(AlignmentResult&& other,
   result.verification = std::move(other.verification);
 }
 
-/** True where \a pose puts the source's sensor within a voxel of the target's and tilts its
- * vertical axis by less than the verdict's probes turn it (a voxel at the source's RMS
- * radius), whatever its heading: the input frames' origins and axes stand for the sensors,
- * as for the azimuth coverage. A spinning LiDAR's rings are cones about that axis, which
- * fall on themselves turned about it by any angle. */
-bool
-sensorsCoincide(const PreparedProblem& problem, const Eigen::Matrix4d& pose)
+/** Where \a pose puts the source's sensor against the target's: within a voxel or apart, and
+ * whether it tilts its vertical axis by less than the verdict's probes turn it (a voxel at
+ * the source's RMS radius), whatever its heading. A spinning LiDAR's rings are cones about
+ * that axis, which fall on themselves turned about it by any angle. A narrow view tilted at
+ * one place counts as apart: a handheld solid-state sensor turned on the spot tilts too, and
+ * the surfaces crossed alone refused such right results (docs/benchmarks.md, "A ring scan
+ * tilted on a featureless road"). */
+SensorPlacement
+sensorPlacement(const PreparedProblem& problem, const Eigen::Matrix4d& pose)
 {
   const double resolution = problem.levelResolution(0);
+  if (!(pose.topRightCorner<3, 1>().norm() < resolution))
+    return SensorPlacement::kApart;
   const double tilt = std::acos(std::clamp(pose(2, 2), -1.0, 1.0)); // z onto z
-  return pose.topRightCorner<3, 1>().norm() < resolution &&
-         tilt * std::max(problem.source().rms_radius, resolution) < resolution;
+  if (tilt * std::max(problem.source().rms_radius, resolution) < resolution)
+    return SensorPlacement::kSamePlaceAndAxis;
+  return problem.narrowView() ? SensorPlacement::kApart : SensorPlacement::kSamePlace;
 }
 
 } // namespace
@@ -137,7 +142,6 @@ finishCandidate(PreparedProblem& problem,
   const double finest_normalized_mi =
       scratch.overlap_voxels == 0 ? 0.0 : normalizedMutualInformation(scratch);
   const LocalPose at = problem.toLocal(result.transformation);
-  const bool sensors_coincide = sensorsCoincide(problem, result.transformation);
   JointHistogram probed;
   const FinestMutualInformation finest_mi = [&](const Eigen::Matrix3d& rotation,
                                                 const Eigen::Vector3d& translation) {
@@ -146,7 +150,7 @@ finishCandidate(PreparedProblem& problem,
   result.verification = verifyPose(
       problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
       problem.levelResolution(0), scratch, problem.target().centroid, problem.targetAxes(),
-      sensors_coincide, p.num_threads, finest_mi);
+      sensorPlacement(problem, result.transformation), p.num_threads, finest_mi);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
   if (result.converged)

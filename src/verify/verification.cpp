@@ -69,7 +69,7 @@ constexpr double kFreeDirectionContrast = 0.05;
 constexpr double kNamedComponent = 0.4;
 
 /** Least share of a move that must cross a sample's surface for the sample to count in the
- * free-direction probe where the sensors coincide: the sine of the angle between the move
+ * free-direction probe where the sensors stand at one place: the sine of the angle between the move
  * and the surface (about 17 deg). A road's slope and its noisy normals put a move along it
  * a few degrees off the ground, which must not count; steeper surfaces may
  * (docs/benchmarks.md, "The verdict where the sensors stand where they were"). */
@@ -79,7 +79,9 @@ constexpr float kAcrossSurface = 0.3f;
  * asked of the MI on the finest grid, where the sensors do not stand where they were: the
  * surfaces may hold a narrow view's turn about its axis of view only weakly while the MI holds
  * it. A shift along a floor or a corridor changes the MI only where the scans end, which the
- * sensor's range sets, not the scene (docs/benchmarks.md, "Free turns the MI holds"). */
+ * sensor's range sets, not the scene (docs/benchmarks.md, "Free turns the MI holds"). Where
+ * the sensors stand at one place with their vertical axes tilted apart, a free direction less
+ * of a turn than this is a shift, which only the surfaces it crosses may hold. */
 constexpr double kTurnShare = 0.7;
 /** Largest share of that turn's axis along the input frame's z: a turn about the vertical
  * swings a narrow view's samples sideways, as the slides along facades that the MI can prefer
@@ -368,7 +370,7 @@ verifyPose(const TargetDistributions& target,
            const JointHistogram& histogram,
            const Eigen::Vector3d& target_centroid,
            const Eigen::Matrix3d& target_axes,
-           bool sensors_coincide,
+           SensorPlacement placement,
            int num_threads,
            const FinestMutualInformation& finest_mi)
 {
@@ -415,11 +417,15 @@ verifyPose(const TargetDistributions& target,
     const double step = shift > 0.0 ? resolution / shift : resolution;
     omega[k] = step * unit_omega;
     delta[k] = step * unit_delta;
-    v.free_direction_contrast[k] = sensors_coincide ? probe.lostAcrossEitherWay(omega[k], delta[k])
-                                                    : probe.lostEitherWay(omega[k], delta[k]);
+    const bool only_crossed = placement == SensorPlacement::kSamePlaceAndAxis ||
+                              (placement == SensorPlacement::kSamePlace &&
+                               direction.tail<3>().norm() < kTurnShare);
+    v.free_direction_contrast[k] = only_crossed ? probe.lostAcrossEitherWay(omega[k], delta[k])
+                                                : probe.lostEitherWay(omega[k], delta[k]);
   });
   const double mi = h.mutualInformation();
-  if (finest_mi && !sensors_coincide && histogram.overlap_voxels > 0 && mi > 0.0) {
+  if (finest_mi && placement != SensorPlacement::kSamePlaceAndAxis &&
+      histogram.overlap_voxels > 0 && mi > 0.0) {
     const Eigen::Vector3d up = target_axes.row(2).transpose(); // the input z, local
     for (int k = 0; k < 2; ++k) {
       const Eigen::Vector3d turn = v.observability_directions.col(k).tail<3>();

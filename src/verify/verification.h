@@ -51,16 +51,25 @@ judge(Verification& v);
 using FinestMutualInformation =
     std::function<double(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation)>;
 
+/** \brief Where a result puts the source's sensor against the target's: the input frames'
+ * origins and vertical axes stand for the sensors, as for the azimuth coverage. */
+enum class SensorPlacement {
+  kApart,            ///< more than a voxel apart
+  kSamePlace,        ///< within a voxel, their vertical axes tilted apart
+  kSamePlaceAndAxis, ///< within a voxel and tilted apart by less than the probes tilt, any heading
+};
+
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
  * histogram at the pose; \a target_centroid and \a target_axes place the target local frame
  * in the target's input frame (input = centroid + axes * local), in which the covariance
  * (about the input frame's origin) and the observability directions are given.
- * \a sensors_coincide says that the pose leaves the sensors where they were (the caller
- * decides; the engine: within a voxel, the vertical axis tilted by less than a voxel at the
- * source's RMS radius, any heading): their scan patterns may then fall on one another, and
- * only surfaces that a move crosses count as holding the pose in the free-direction probe.
- * Elsewhere a free direction that is mostly a turn tilting the source is asked of
+ * \a placement says where the pose leaves the sensors (the caller decides): standing at one
+ * place, their scan patterns are centred on one point, and a shift moves one off the other
+ * whatever the surfaces, so only surfaces that a move crosses count as holding a free
+ * direction that is mostly a shift; with their vertical axes also within the probes' tilt,
+ * the patterns may fall on one another under any move, and that holds for every free
+ * direction. Elsewhere a free direction that is mostly a turn tilting the source is asked of
  * \a finest_mi, where given, which may hold it (Verification::free_turn_mi_loss). It runs on
  * up to \a num_threads threads, with the same result on any number. */
 Verification
@@ -72,7 +81,7 @@ verifyPose(const TargetDistributions& target,
            const JointHistogram& histogram,
            const Eigen::Vector3d& target_centroid,
            const Eigen::Matrix3d& target_axes,
-           bool sensors_coincide,
+           SensorPlacement placement,
            int num_threads = 1,
            const FinestMutualInformation& finest_mi = {});
 
