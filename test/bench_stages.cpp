@@ -121,9 +121,10 @@ BM_SourceSamplePyramid(benchmark::State& state)
   const double cell = p.resolution() / p.parameters.sampling.source_subdivision;
   for (auto _ : state)
     benchmark::DoNotOptimize(
-        pcl_mi::core::makeSourceSamplePyramid(p.source_local.points, cell, levels - 1));
+        pcl_mi::core::makeSourceSamplePyramid(p.source_local.points, cell, levels - 1,
+                                              static_cast<int>(state.range(0))));
 }
-BENCHMARK(BM_SourceSamplePyramid)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SourceSamplePyramid)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 void
 BM_TargetGrid(benchmark::State& state)

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <optional>
 #include <random>
@@ -428,6 +429,51 @@ TEST(SourceSamples, EachSummaryHoldsTheSamePointsAsItsCell)
   }
 }
 
+namespace {
+
+/** True where \a a and \a b hold the same samples, to the bit. */
+bool
+sameSamples(const SourceSamples& a, const SourceSamples& b)
+{
+  if (a.samples.size() != b.samples.size() || a.has_covariance != b.has_covariance ||
+      a.cell_size != b.cell_size || a.grid_origin != b.grid_origin)
+    return false;
+  for (std::size_t i = 0; i < a.samples.size(); ++i) {
+    const SourceSample &x = a.samples[i], &y = b.samples[i];
+    if (x.count != y.count || std::memcmp(x.position.data(), y.position.data(), 12) != 0 ||
+        std::memcmp(x.covariance, y.covariance, sizeof x.covariance) != 0)
+      return false;
+  }
+  return true;
+}
+
+} // namespace
+
+TEST(SourceSamples, APyramidOnTwoThreadsIsTheSameToTheBit)
+{
+  // Two threads split the finest cells at a key near the median: a real scan, and a cloud
+  // whose points all lie in one cell (the split's first side then holds nothing).
+  const PointList scan = makeLocalCloud(test_data::pointList(*test_data::loadScan("00", 0)),
+                                        64.0)
+                             .points;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> within(0.01f, 0.09f);
+  const PointList one_cell = [&] {
+    PointList points(20000);
+    for (auto& p : points)
+      p = Eigen::Vector3f(within(rng), within(rng), within(rng));
+    return points;
+  }();
+  for (const PointList* points : {&scan, &one_cell}) {
+    const auto one = makeSourceSamplePyramid(*points, 0.5, 2, 1);
+    const auto two = makeSourceSamplePyramid(*points, 0.5, 2, 2);
+    ASSERT_EQ(one.size(), two.size());
+    for (std::size_t level = 0; level < one.size(); ++level)
+      EXPECT_TRUE(sameSamples(one[level], two[level])) << "level " << level;
+  }
+  EXPECT_GT(makeSourceSamplePyramid(scan, 0.5, 2, 2).front().samples.size(), 1000u);
+}
+
 TEST(SourceSamples, MatchPerPointEvaluationWhenCellsSitInsideVoxels)
 {
   // Points on a 0.1 m lattice inside 2 m voxels, summarised into 0.5 m cells that nest in
@@ -519,6 +565,22 @@ TEST(UpDirection, FindsTheFloorOfATiltedRoomAndNotItsWalls)
   EXPECT_FALSE(estimateUpDirection(makeSourceSamples(turnedRoom(Eigen::Matrix3f::Identity(), true),
                                                      0.0))
                    .has_value());
+}
+
+TEST(UpDirection, TheSameOnTwoThreads)
+{
+  // The cells' normals split over two threads and joined in the cells' order: a real scan's
+  // up direction is the same to the bit.
+  const PointList scan = makeLocalCloud(test_data::pointList(*test_data::loadScan("00", 0)),
+                                        64.0)
+                             .points;
+  const SourceSamples cells = makeSourceSamples(scan, 0.5);
+  const std::optional<Eigen::Vector3d> one = estimateUpDirection(cells, 1);
+  const std::optional<Eigen::Vector3d> two = estimateUpDirection(cells, 2);
+  ASSERT_TRUE(one.has_value());
+  ASSERT_TRUE(two.has_value());
+  EXPECT_EQ(std::memcmp(one->data(), two->data(), sizeof(double) * 3), 0);
+  EXPECT_GT(one->z(), 0.99);
 }
 
 TEST(BoundingBox, PackedPointsGiveTheScalarLoopsBox)

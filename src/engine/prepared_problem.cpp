@@ -222,10 +222,13 @@ PreparedProblem::prepare(std::string& error)
     target_axes_.setIdentity();
   }
 
-  // Longest first: a free thread takes the next task.
+  // Longest first: a free thread takes the next task. A new source alone (a scan against a
+  // kept map) is the only task, and splits its summaries over the threads instead.
   std::vector<std::function<void()>> tasks;
   if (new_source)
-    tasks.emplace_back([this] { buildSourceSamples(); });
+    tasks.emplace_back([this, threads = new_target ? 1 : parameters_.num_threads] {
+      buildSourceSamples(threads);
+    });
   if (new_target)
     appendTargetTasks(tasks, true);
   parallelFor(static_cast<int>(tasks.size()), parameters_.num_threads,
@@ -489,7 +492,7 @@ PreparedProblem::levelBinning(double level_resolution) const
 }
 
 void
-PreparedProblem::buildSourceSamples()
+PreparedProblem::buildSourceSamples(int threads)
 {
   using SamplesPtr = std::shared_ptr<const SourceSamples>;
   const int num_levels = parameters_.grid.pyramid_levels;
@@ -516,7 +519,7 @@ PreparedProblem::buildSourceSamples()
   }
   std::vector<SamplesPtr> pyramid;
   if (nested)
-    for (auto& samples : makeSourceSamplePyramid(source_.points, base, depth))
+    for (auto& samples : makeSourceSamplePyramid(source_.points, base, depth, threads))
       pyramid.push_back(std::make_shared<const SourceSamples>(std::move(samples)));
   SamplesPtr every_point;
   auto samplesFor = [&](double cell) -> SamplesPtr {
@@ -533,7 +536,7 @@ PreparedProblem::buildSourceSamples()
   source_levels_.clear();
   for (const double c : cells)
     source_levels_.push_back(samplesFor(c));
-  source_up_ = estimateUpDirection(*source_levels_.front());
+  source_up_ = estimateUpDirection(*source_levels_.front(), threads);
 }
 
 } // namespace core

@@ -242,8 +242,9 @@ private:
    * turned would need more voxels than a grid holds stays as it was. */
   void
   levelTarget();
+  /** The source's samples per level and its up direction, on up to \a threads threads. */
   void
-  buildSourceSamples();
+  buildSourceSamples(int threads);
   FeatureBinning
   levelBinning(double level_resolution) const;
   /** The refinement's distributions of the target's \a cubes of \a min_points or more. */

@@ -4,6 +4,7 @@
 #include "features/source_samples.h"
 
 #include "util/bounding_box.h"
+#include "util/parallel.h"
 
 #include <algorithm>
 #include <cmath>
@@ -87,6 +88,12 @@ public:
     for (std::size_t i = 0; i < count; ++i)
       wide_[i] = {keys(i), static_cast<std::uint32_t>(i)};
     radixSort(wide_, bits, [](const std::pair<std::uint64_t, std::uint32_t>& v) { return v.first; });
+  }
+
+  /** Sorts \a packed (key << 32 | index, keys below 2^bits, at most 32 bits) by key, stably. */
+  SortedCells(std::vector<std::uint64_t>&& packed, int bits) : packed_(std::move(packed))
+  {
+    radixSort(packed_, bits, [](std::uint64_t v) { return v >> 32; });
   }
 
   std::size_t
@@ -262,21 +269,10 @@ appendSummary(SourceSamples& out, const Eigen::Vector3d& anchor, const OffsetSum
   out.samples.push_back(s);
 }
 
-/** makeSourceSamples() for \a points (non-empty) whose bounding box is [\a min, \a max]. */
-SourceSamples
-summariseCells(const PointList& points,
-               double cell_size,
-               const Eigen::Vector3f& min,
-               const Eigen::Vector3f& max)
+/** Appends to \a out one summary per run of equal keys in \a keyed, of the points it indexes. */
+void
+summariseRuns(const PointList& points, const SortedCells& keyed, SourceSamples& out)
 {
-  SourceSamples out;
-  out.cell_size = cell_size;
-  out.point_count = points.size();
-  out.grid_origin = min;
-  // Sort points by their cell (z slowest), then summarise runs of equal cells.
-  const SortedCells keyed = sortedCellKeys(
-      points.size(), [&](std::size_t i) -> const Eigen::Vector3f& { return points[i]; }, min,
-      max, cell_size);
   for (std::size_t begin = 0; begin < keyed.size();) {
     std::size_t end = begin + 1;
     while (end < keyed.size() && keyed.key(end) == keyed.key(begin))
@@ -291,6 +287,97 @@ summariseCells(const PointList& points,
     appendSummary(out, anchor, sums);
     begin = end;
   }
+}
+
+/** Fewest points worth splitting the summaries over two threads. */
+constexpr std::size_t kSplitPoints = 16384;
+
+/** The position of point i, for CellKeys. */
+struct PointAt {
+  const PointList& points;
+  const Eigen::Vector3f&
+  operator()(std::size_t i) const
+  {
+    return points[i];
+  }
+};
+
+/** summariseCells() on two threads: the cells split at a key near the median, each thread
+ * sorting and summarising the cells on its side. Each cell is summed by one thread, from
+ * its points in their order, so the samples are those of one thread to the bit. False
+ * (nothing done) where the keys need more than 32 bits. */
+bool
+summariseCellsOnTwoThreads(const PointList& points,
+                           const CellKeys<PointAt>& keys,
+                           SourceSamples& out)
+{
+  if (keys.bits() > 32)
+    return false;
+  const std::size_t count = points.size();
+  // The cut: the median key of an even sample of the points.
+  std::vector<std::uint64_t> sample;
+  const std::size_t stride = std::max<std::size_t>(1, count / 1024);
+  for (std::size_t i = 0; i < count; i += stride)
+    sample.push_back(keys(i));
+  std::nth_element(sample.begin(), sample.begin() + sample.size() / 2, sample.end());
+  const std::uint64_t cut = sample[sample.size() / 2];
+  // Each thread packs the keys of half of the points, into the two sides, in index order.
+  const std::size_t middle = count / 2 / 4 * 4;
+  std::vector<std::uint64_t> packed[2][2]; // [half][side]
+  parallelFor(2, 2, [&](int half) {
+    // Filled in the thread's own vectors: the shared array's neighbouring ends would bounce
+    // one cache line between the threads at every point.
+    std::vector<std::uint64_t> side[2];
+    const std::size_t begin = half == 0 ? 0 : middle, end = half == 0 ? middle : count;
+    side[0].reserve((end - begin) * 5 / 8);
+    side[1].reserve((end - begin) * 5 / 8);
+    std::uint64_t four[4];
+    std::size_t i = begin;
+    for (; i + 4 <= end; i += 4) {
+      keys.packFour(i, four);
+      for (const std::uint64_t v : four)
+        side[(v >> 32) >= cut].push_back(v);
+    }
+    for (; i < end; ++i) {
+      const std::uint64_t v = keys(i) << 32 | static_cast<std::uint64_t>(i);
+      side[(v >> 32) >= cut].push_back(v);
+    }
+    packed[half][0] = std::move(side[0]);
+    packed[half][1] = std::move(side[1]);
+  });
+  SourceSamples sides[2];
+  parallelFor(2, 2, [&](int side) {
+    std::vector<std::uint64_t> mine = std::move(packed[0][side]);
+    mine.insert(mine.end(), packed[1][side].begin(), packed[1][side].end());
+    SourceSamples summaries; // the thread's own, as above
+    summariseRuns(points, SortedCells(std::move(mine), keys.bits()), summaries);
+    sides[side] = std::move(summaries);
+  });
+  out.has_covariance = sides[0].has_covariance || sides[1].has_covariance;
+  out.samples = std::move(sides[0].samples);
+  out.samples.insert(out.samples.end(), sides[1].samples.begin(), sides[1].samples.end());
+  return true;
+}
+
+/** makeSourceSamples() for \a points (non-empty) whose bounding box is [\a min, \a max], on
+ * up to \a threads threads. */
+SourceSamples
+summariseCells(const PointList& points,
+               double cell_size,
+               const Eigen::Vector3f& min,
+               const Eigen::Vector3f& max,
+               int threads = 1)
+{
+  SourceSamples out;
+  out.cell_size = cell_size;
+  out.point_count = points.size();
+  out.grid_origin = min;
+  // Sort points by their cell (z slowest), then summarise runs of equal cells.
+  const PointAt position_of{points};
+  if (threads >= 2 && points.size() >= kSplitPoints &&
+      summariseCellsOnTwoThreads(points, CellKeys<PointAt>(position_of, min, max, cell_size), out))
+    return out;
+  summariseRuns(points, sortedCellKeys(points.size(), position_of, min, max, cell_size), out);
   return out;
 }
 
@@ -316,7 +403,7 @@ makeSourceSamples(const PointList& points, double cell_size)
 }
 
 std::vector<SourceSamples>
-makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
+makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser, int threads)
 {
   std::vector<SourceSamples> pyramid;
   if (points.empty() || !(cell_size > 0.0)) {
@@ -326,7 +413,7 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser)
   // One bounding box for every level: coarse cells nest fine ones from the same corner.
   Eigen::Vector3f min, max;
   boundingBox(points, min, max);
-  pyramid.push_back(summariseCells(points, cell_size, min, max));
+  pyramid.push_back(summariseCells(points, cell_size, min, max, threads));
   for (int k = 1; k <= coarser; ++k) {
     const SourceSamples& fine = pyramid.back();
     SourceSamples out;

@@ -53,9 +53,10 @@ makeSourceSamples(const PointList& points, double cell_size);
 /** \brief Summarises \a points per cube of edge \a cell_size and then per cube of edge
  * cell_size * 2^k for k = 1 .. \a coarser, merging the finer summaries (same count, centroid
  * and covariance as summarising the points directly, up to rounding), so the points are
- * sorted once however many levels there are. Element k has cell size cell_size * 2^k. */
+ * sorted once however many levels there are. Element k has cell size cell_size * 2^k. The
+ * finest level is summarised on up to \a threads threads, with the same result on any number. */
 std::vector<SourceSamples>
-makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser);
+makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser, int threads = 1);
 
 } // namespace core
 } // namespace pcl_mi

@@ -3,6 +3,8 @@
  */
 #include "features/up_direction.h"
 
+#include "util/parallel.h"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -27,6 +29,8 @@ constexpr std::size_t kMinimumNormals = 20;
 /** Most cells looked at, spread evenly over the cloud: a few thousand normals find the
  * family as well as all of them, at a bounded cost. */
 constexpr std::size_t kMaxCells = 8192;
+/** Fewest cells looked at per thread: fewer are not worth a thread's start. */
+constexpr std::size_t kMinimumShare = 1024;
 /** Bins per unit of the normals' (x, y) in the histogram that finds the family. */
 constexpr double kBinsPerUnit = 50.0;
 
@@ -36,15 +40,18 @@ degrees(double d)
   return d * M_PI / 180.0;
 }
 
-/** Unit normals of the planar cells, towards +z, within the cone. */
-std::vector<Eigen::Vector3d>
-planarNormals(const SourceSamples& cells)
+/** Appends the unit normals of the planar cells among cells.samples[k * stride] for k in
+ * [\a first, \a last), towards +z, within the cone, in the cells' order. */
+void
+appendPlanarNormals(const SourceSamples& cells,
+                    std::size_t stride,
+                    std::size_t first,
+                    std::size_t last,
+                    std::vector<Eigen::Vector3d>& normals)
 {
-  std::vector<Eigen::Vector3d> normals;
   const double cone = std::cos(degrees(kConeDegrees));
-  const std::size_t stride = cells.samples.size() / kMaxCells + 1;
-  for (std::size_t i = 0; i < cells.samples.size(); i += stride) {
-    const SourceSample& s = cells.samples[i];
+  for (std::size_t k = first; k < last; ++k) {
+    const SourceSample& s = cells.samples[k * stride];
     if (s.count < kMinimumCellPoints)
       continue;
     const float* c = s.covariance;
@@ -63,6 +70,28 @@ planarNormals(const SourceSamples& cells)
     if (n.z() >= cone)
       normals.push_back(n);
   }
+}
+
+/** Unit normals of the planar cells looked at, towards +z, within the cone, in the cells'
+ * order; on up to \a threads threads, each taking an even share of the cells. */
+std::vector<Eigen::Vector3d>
+planarNormals(const SourceSamples& cells, int threads)
+{
+  const std::size_t stride = cells.samples.size() / kMaxCells + 1;
+  const std::size_t looked = (cells.samples.size() + stride - 1) / stride;
+  const std::size_t most = static_cast<std::size_t>(std::max(threads, 1));
+  const int shares = static_cast<int>(std::clamp<std::size_t>(looked / kMinimumShare, 1, most));
+  std::vector<std::vector<Eigen::Vector3d>> found(static_cast<std::size_t>(shares));
+  parallelFor(shares, shares, [&](int share) {
+    // The thread's own vector: neighbouring vectors' ends share a cache line.
+    std::vector<Eigen::Vector3d> normals;
+    appendPlanarNormals(cells, stride, looked * static_cast<std::size_t>(share) / shares,
+                        looked * static_cast<std::size_t>(share + 1) / shares, normals);
+    found[static_cast<std::size_t>(share)] = std::move(normals);
+  });
+  std::vector<Eigen::Vector3d> normals = std::move(found.front());
+  for (std::size_t i = 1; i < found.size(); ++i)
+    normals.insert(normals.end(), found[i].begin(), found[i].end());
   return normals;
 }
 
@@ -110,9 +139,9 @@ densestDirection(const std::vector<Eigen::Vector3d>& normals)
 } // namespace
 
 std::optional<Eigen::Vector3d>
-estimateUpDirection(const SourceSamples& cells)
+estimateUpDirection(const SourceSamples& cells, int threads)
 {
-  const std::vector<Eigen::Vector3d> normals = planarNormals(cells);
+  const std::vector<Eigen::Vector3d> normals = planarNormals(cells, threads);
   if (normals.size() < kMinimumNormals)
     return std::nullopt;
   Eigen::Vector3d up = densestDirection(normals);

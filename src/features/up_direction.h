@@ -24,9 +24,10 @@ namespace core {
  * and ceiling, for a sensor tilted by up to about 70 degrees. Each wall orientation is a
  * family of its own, which a tilt of more than 15 degrees brings into the cone, but the
  * normal counts once per cell, so surfaces weigh by their area, not by how densely the
- * sensor sampled them, and the ground outweighs each. */
+ * sensor sampled them, and the ground outweighs each. The cells' normals are found on up to
+ * \a threads threads, with the same result on any number. */
 std::optional<Eigen::Vector3d>
-estimateUpDirection(const SourceSamples& cells);
+estimateUpDirection(const SourceSamples& cells, int threads = 1);
 
 } // namespace core
 } // namespace pcl_mi
