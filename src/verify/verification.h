@@ -56,7 +56,7 @@ using FinestMutualInformation =
 enum class SensorPlacement {
   kApart,            ///< more than a voxel apart
   kSamePlace,        ///< within a voxel, their vertical axes tilted apart
-  kSamePlaceAndAxis, ///< within a voxel and tilted apart by less than the probes tilt, any heading
+  kSamePlaceAndAxis, ///< within a voxel, tilted apart less than the probes' tilt; any heading
 };
 
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
