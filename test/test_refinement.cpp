@@ -3,6 +3,7 @@
  */
 #include "refine/refinement.h"
 #include "features/source_samples.h"
+#include "features/up_direction.h"
 #include "features/voxel_grid.h"
 #include "verify/pose_evidence.h"
 #include "verify/verification.h"
@@ -16,6 +17,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
@@ -354,6 +356,29 @@ TEST(Verification, ANegativeLeadIsASecondOptimum)
   pcl_mi::core::judge(v);
   EXPECT_NE(v.reason.find("a second optimum"), std::string::npos) << v.reason;
   EXPECT_NE(v.reason.find("-2 %"), std::string::npos) << v.reason;
+}
+
+TEST(TargetDistributions, HandTheUpDirectionTheAxesItWouldFind)
+{
+  // The target's up direction takes the principal axes the distributions compute for every
+  // cube: the same up to the bit as decomposing the cubes again, at 0.7 m (every cube looked
+  // at) and at 0.2 m (every few cubes).
+  const PointList points = bundledScan();
+  for (const double cell : {0.7, 0.2}) {
+    const SourceSamples cubes = makeSourceSamples(points, cell);
+    UpDirectionFromAxes shared(cubes);
+    std::size_t handed = 0;
+    const TargetDistributions target(cubes, 4, 0.05, [&](std::size_t i, const auto& axes) {
+      handed += shared.wanted(i);
+      shared.look(i, axes);
+    });
+    const std::optional<Eigen::Vector3d> own = estimateUpDirection(cubes);
+    const std::optional<Eigen::Vector3d> from_axes = shared.estimate();
+    ASSERT_TRUE(own.has_value());
+    ASSERT_TRUE(from_axes.has_value());
+    EXPECT_EQ(std::memcmp(own->data(), from_axes->data(), sizeof(double) * 3), 0) << cell;
+    EXPECT_GT(handed, 1000u);
+  }
 }
 
 TEST(TargetDistributions, FindBlockGivesFindsAnswers)

@@ -401,10 +401,20 @@ PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks, bo
     tasks.emplace_back([this, estimate_up] {
       const SourceSamples cubes =
           makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
+      const int min_points = finestRefinementMinimumPoints(cubes);
+      // The distributions decompose every cube the up direction looks at: it takes their
+      // principal axes instead of decomposing them again.
+      UpDirectionFromAxes up(cubes);
+      const bool shared = estimate_up && !search_only_ &&
+                          static_cast<std::uint32_t>(min_points) <= kUpMinimumCellPoints;
       if (!search_only_)
-        distributions_ = makeDistributions(cubes, finestRefinementMinimumPoints(cubes));
+        distributions_ = makeDistributions(
+            cubes, min_points,
+            shared ? TargetDistributions::AxesVisitor(
+                         [&up](std::size_t i, const auto& axes) { up.look(i, axes); })
+                   : TargetDistributions::AxesVisitor());
       if (estimate_up)
-        target_up_ = estimateUpDirection(cubes);
+        target_up_ = shared ? up.estimate() : estimateUpDirection(cubes);
     });
   for (int l = 0; l < static_cast<int>(levels_.size()); ++l)
     tasks.emplace_back([this, l] { buildGrid(l); });
@@ -427,10 +437,12 @@ PreparedProblem::distributions(int stage)
 }
 
 std::unique_ptr<TargetDistributions>
-PreparedProblem::makeDistributions(const SourceSamples& cubes, int min_points) const
+PreparedProblem::makeDistributions(const SourceSamples& cubes,
+                                   int min_points,
+                                   const TargetDistributions::AxesVisitor& on_axes) const
 {
   return std::make_unique<TargetDistributions>(
-      cubes, min_points, kRefinementNoiseFraction * parameters_.grid.resolution);
+      cubes, min_points, kRefinementNoiseFraction * parameters_.grid.resolution, on_axes);
 }
 
 bool

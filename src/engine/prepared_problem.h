@@ -247,9 +247,12 @@ private:
   buildSourceSamples(int threads);
   FeatureBinning
   levelBinning(double level_resolution) const;
-  /** The refinement's distributions of the target's \a cubes of \a min_points or more. */
+  /** The refinement's distributions of the target's \a cubes of \a min_points or more;
+   * \a on_axes as TargetDistributions takes it. */
   std::unique_ptr<TargetDistributions>
-  makeDistributions(const SourceSamples& cubes, int min_points) const;
+  makeDistributions(const SourceSamples& cubes,
+                    int min_points,
+                    const TargetDistributions::AxesVisitor& on_axes = {}) const;
 
   Parameters requested_, parameters_;
   /** deriveResolution() of the target; 0 while not needed or without a target. */

@@ -16,8 +16,6 @@ namespace core {
 
 namespace {
 
-/** Fewest points that give a cell a normal. */
-constexpr std::uint32_t kMinimumCellPoints = 5;
 /** A cell is planar when its least variance is under this share of the middle one. */
 constexpr double kPlanarRatio = 0.05;
 /** Cone about the frame's +z within which up is looked for (degrees). */
@@ -40,6 +38,32 @@ degrees(double d)
   return d * M_PI / 180.0;
 }
 
+/** The stride between the cells looked at. */
+std::size_t
+strideOf(const SourceSamples& cells)
+{
+  return cells.samples.size() / kMaxCells + 1;
+}
+
+/** The unit normal, towards +z, of a cell with principal \a axes where it is planar and the
+ * normal lies within the cone. */
+std::optional<Eigen::Vector3d>
+planarNormal(const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& axes)
+{
+  const Eigen::Vector3d& spread = axes.eigenvalues(); // ascending
+  if (!(spread[1] > 0.0) || spread[0] >= kPlanarRatio * spread[1])
+    return std::nullopt;
+  Eigen::Vector3d n = axes.eigenvectors().col(0).normalized();
+  if (!n.allFinite())
+    return std::nullopt;
+  if (n.z() < 0.0)
+    n = -n;
+  static const double cone = std::cos(degrees(kConeDegrees));
+  if (n.z() < cone)
+    return std::nullopt;
+  return n;
+}
+
 /** Appends the unit normals of the planar cells among cells.samples[k * stride] for k in
  * [\a first, \a last), towards +z, within the cone, in the cells' order. */
 void
@@ -49,26 +73,17 @@ appendPlanarNormals(const SourceSamples& cells,
                     std::size_t last,
                     std::vector<Eigen::Vector3d>& normals)
 {
-  const double cone = std::cos(degrees(kConeDegrees));
   for (std::size_t k = first; k < last; ++k) {
     const SourceSample& s = cells.samples[k * stride];
-    if (s.count < kMinimumCellPoints)
+    if (s.count < kUpMinimumCellPoints)
       continue;
     const float* c = s.covariance;
     Eigen::Matrix3d covariance;
     covariance << c[0], c[1], c[2], c[1], c[3], c[4], c[2], c[4], c[5];
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
     solver.computeDirect(covariance);
-    const Eigen::Vector3d& spread = solver.eigenvalues(); // ascending
-    if (!(spread[1] > 0.0) || spread[0] >= kPlanarRatio * spread[1])
-      continue;
-    Eigen::Vector3d n = solver.eigenvectors().col(0).normalized();
-    if (!n.allFinite())
-      continue;
-    if (n.z() < 0.0)
-      n = -n;
-    if (n.z() >= cone)
-      normals.push_back(n);
+    if (const std::optional<Eigen::Vector3d> n = planarNormal(solver))
+      normals.push_back(*n);
   }
 }
 
@@ -77,7 +92,7 @@ appendPlanarNormals(const SourceSamples& cells,
 std::vector<Eigen::Vector3d>
 planarNormals(const SourceSamples& cells, int threads)
 {
-  const std::size_t stride = cells.samples.size() / kMaxCells + 1;
+  const std::size_t stride = strideOf(cells);
   const std::size_t looked = (cells.samples.size() + stride - 1) / stride;
   const std::size_t most = static_cast<std::size_t>(std::max(threads, 1));
   const int shares = static_cast<int>(std::clamp<std::size_t>(looked / kMinimumShare, 1, most));
@@ -136,12 +151,10 @@ densestDirection(const std::vector<Eigen::Vector3d>& normals)
   return sum.normalized();
 }
 
-} // namespace
-
+/** The up direction from the planar cells' \a normals (estimateUpDirection()). */
 std::optional<Eigen::Vector3d>
-estimateUpDirection(const SourceSamples& cells, int threads)
+upFromNormals(const std::vector<Eigen::Vector3d>& normals)
 {
-  const std::vector<Eigen::Vector3d> normals = planarNormals(cells, threads);
   if (normals.size() < kMinimumNormals)
     return std::nullopt;
   Eigen::Vector3d up = densestDirection(normals);
@@ -164,6 +177,39 @@ estimateUpDirection(const SourceSamples& cells, int threads)
       up = -up;
   }
   return up;
+}
+
+} // namespace
+
+std::optional<Eigen::Vector3d>
+estimateUpDirection(const SourceSamples& cells, int threads)
+{
+  return upFromNormals(planarNormals(cells, threads));
+}
+
+UpDirectionFromAxes::UpDirectionFromAxes(const SourceSamples& cells)
+: cells_(cells), stride_(strideOf(cells))
+{}
+
+bool
+UpDirectionFromAxes::wanted(std::size_t i) const
+{
+  return i % stride_ == 0 && cells_.samples[i].count >= kUpMinimumCellPoints;
+}
+
+void
+UpDirectionFromAxes::look(std::size_t i, const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& axes)
+{
+  if (!wanted(i))
+    return;
+  if (const std::optional<Eigen::Vector3d> n = planarNormal(axes))
+    normals_.push_back(*n);
+}
+
+std::optional<Eigen::Vector3d>
+UpDirectionFromAxes::estimate() const
+{
+  return upFromNormals(normals_);
 }
 
 } // namespace core

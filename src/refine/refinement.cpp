@@ -280,7 +280,8 @@ TargetDistributions::TargetDistributions(const PointList& points,
 
 TargetDistributions::TargetDistributions(const SourceSamples& cells,
                                          int min_points,
-                                         double noise_sigma)
+                                         double noise_sigma,
+                                         const AxesVisitor& on_axes)
 : cell_size_(cells.cell_size),
   inv_cell_(static_cast<float>(1.0 / cells.cell_size)),
   origin_(cells.grid_origin)
@@ -303,6 +304,8 @@ TargetDistributions::TargetDistributions(const SourceSamples& cells,
       continue;
     const Eigen::Matrix3d c = covarianceOf(s);
     const auto own = principalAxes(c);
+    if (on_axes)
+      on_axes(i, own);
     const Eigen::Vector3d& spread = own.eigenvalues();
     Eigen::Matrix3d flattened;
     Eigen::Vector3d normal = own.eigenvectors().col(0);

@@ -13,7 +13,13 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
+
+namespace Eigen {
+template <typename MatrixType>
+class SelfAdjointEigenSolver; // <Eigen/Eigenvalues>, where the axes are read
+}
 
 namespace pcl_mi {
 namespace core {
@@ -40,9 +46,17 @@ public:
                       int min_points,
                       double noise_sigma);
 
+  /** \brief Principal axes of a cube's own points: cell index and eigen solver (ascending). */
+  using AxesVisitor =
+      std::function<void(std::size_t cell, const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>&)>;
+
   /** \brief The same from the cubes' summaries, \a cells = makeSourceSamples(points,
-   * cell_size), for a caller that reads them too. */
-  TargetDistributions(const SourceSamples& cells, int min_points, double noise_sigma);
+   * cell_size), for a caller that reads them too: \a on_axes, where given, is handed the
+   * principal axes of every cube of \a min_points or more, in the cells' order. */
+  TargetDistributions(const SourceSamples& cells,
+                      int min_points,
+                      double noise_sigma,
+                      const AxesVisitor& on_axes = {});
 
   /** \brief Index of the distribution whose cube holds \a p, or -1. */
   int
