@@ -205,7 +205,7 @@ PreparedProblem::prepare(std::string& error)
   if (new_target) {
     // Refuse a too-fine resolution up front: no coarser level needs more voxels.
     GridGeometry finest;
-    if (!makeGridGeometry(target_.points, resolution, finest, error)) {
+    if (!makeGridGeometry(target_.points, resolution, finest, error, &target_.box)) {
       // A derived resolution is the engine's choice, so it coarsens where the points that
       // survive the outlier rule do not fit; each doubling shrinks the grid eightfold.
       if (requested_.grid.resolution != 0.0 || derived_resolution_ <= 0.0)
@@ -400,7 +400,8 @@ PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks, bo
   if (!search_only_ || estimate_up)
     tasks.emplace_back([this, estimate_up] {
       const SourceSamples cubes =
-          makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution());
+          makeSourceSamples(target_.points, parameters_.effectiveRefinementResolution(),
+                            &target_.box);
       const int min_points = finestRefinementMinimumPoints(cubes);
       // The distributions decompose every cube the up direction looks at: it takes their
       // principal axes instead of decomposing them again.
@@ -431,7 +432,8 @@ PreparedProblem::distributions(int stage)
   if (!coarser_distributions_[i])
     coarser_distributions_[i] = makeDistributions(
         makeSourceSamples(target_.points,
-                          std::ldexp(parameters_.effectiveRefinementResolution(), stage)),
+                          std::ldexp(parameters_.effectiveRefinementResolution(), stage),
+                          &target_.box),
         kRefinementMinimumPoints);
   return *coarser_distributions_[i];
 }
@@ -464,11 +466,13 @@ PreparedProblem::levelTarget()
   const Eigen::Matrix3f to_local = axes.transpose().cast<float>();
   for (std::size_t i = 0; i < turned.size(); ++i)
     turned[i] = to_local * target_.points[i];
+  const Box turned_box = boundingBox(turned);
   GridGeometry finest;
   std::string error;
-  if (!makeGridGeometry(turned, parameters_.grid.resolution, finest, error))
+  if (!makeGridGeometry(turned, parameters_.grid.resolution, finest, error, &turned_box))
     return;
   target_.points = std::move(turned);
+  target_.box = turned_box;
   target_axes_ = axes;
   // Up, in the input frame, stays as estimated there.
   std::vector<std::function<void()>> tasks;
@@ -485,7 +489,7 @@ PreparedProblem::buildGrid(int level)
   std::string error;
   // prepare() has ruled out every reason this could fail.
   if (!buildTargetGrid(target_.points, resolution, parameters_.grid.feature,
-                       levelBinning(resolution), *grid, error))
+                       levelBinning(resolution), *grid, error, &target_.box))
     throw std::runtime_error(error);
   levels_[static_cast<std::size_t>(level)].grid = std::move(grid);
 }
@@ -531,7 +535,8 @@ PreparedProblem::buildSourceSamples(int threads)
   }
   std::vector<SamplesPtr> pyramid;
   if (nested)
-    for (auto& samples : makeSourceSamplePyramid(source_.points, base, depth, threads))
+    for (auto& samples :
+         makeSourceSamplePyramid(source_.points, base, depth, threads, &source_.box))
       pyramid.push_back(std::make_shared<const SourceSamples>(std::move(samples)));
   SamplesPtr every_point;
   auto samplesFor = [&](double cell) -> SamplesPtr {
@@ -543,7 +548,8 @@ PreparedProblem::buildSourceSamples(int threads)
     }
     if (nested)
       return pyramid[static_cast<std::size_t>(octave(cell))];
-    return std::make_shared<const SourceSamples>(makeSourceSamples(source_.points, cell));
+    return std::make_shared<const SourceSamples>(
+        makeSourceSamples(source_.points, cell, &source_.box));
   };
   source_levels_.clear();
   for (const double c : cells)

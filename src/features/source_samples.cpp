@@ -384,7 +384,7 @@ summariseCells(const PointList& points,
 } // namespace
 
 SourceSamples
-makeSourceSamples(const PointList& points, double cell_size)
+makeSourceSamples(const PointList& points, double cell_size, const Box* box)
 {
   SourceSamples out;
   out.cell_size = cell_size;
@@ -397,13 +397,16 @@ makeSourceSamples(const PointList& points, double cell_size)
       out.samples[i].position = points[i];
     return out;
   }
-  Eigen::Vector3f min, max;
-  boundingBox(points, min, max);
-  return summariseCells(points, cell_size, min, max);
+  const Box found = box ? *box : boundingBox(points);
+  return summariseCells(points, cell_size, found.min, found.max);
 }
 
 std::vector<SourceSamples>
-makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser, int threads)
+makeSourceSamplePyramid(const PointList& points,
+                        double cell_size,
+                        int coarser,
+                        int threads,
+                        const Box* box)
 {
   std::vector<SourceSamples> pyramid;
   if (points.empty() || !(cell_size > 0.0)) {
@@ -411,8 +414,8 @@ makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser, 
     return pyramid;
   }
   // One bounding box for every level: coarse cells nest fine ones from the same corner.
-  Eigen::Vector3f min, max;
-  boundingBox(points, min, max);
+  const Box found = box ? *box : boundingBox(points);
+  const Eigen::Vector3f &min = found.min, &max = found.max;
   pyramid.push_back(summariseCells(points, cell_size, min, max, threads));
   for (int k = 1; k <= coarser; ++k) {
     const SourceSamples& fine = pyramid.back();

@@ -4,6 +4,8 @@
  */
 #pragma once
 
+#include "util/bounding_box.h"
+
 #include <pcl_mi/types.h>
 
 #include <Eigen/Core>
@@ -46,17 +48,23 @@ cellCoordinates(const Eigen::Vector3f& p, const Eigen::Vector3f& min, float inv_
 
 /** \brief Summarises \a points per cube of edge \a cell_size (0 keeps every point). Cells
  * are ordered by their position in space, which keeps the backends' memory access
- * coherent. */
+ * coherent. \a box, where given, is the points' bounding box, which is then not looked for
+ * again. */
 SourceSamples
-makeSourceSamples(const PointList& points, double cell_size);
+makeSourceSamples(const PointList& points, double cell_size, const Box* box = nullptr);
 
 /** \brief Summarises \a points per cube of edge \a cell_size and then per cube of edge
  * cell_size * 2^k for k = 1 .. \a coarser, merging the finer summaries (same count, centroid
  * and covariance as summarising the points directly, up to rounding), so the points are
  * sorted once however many levels there are. Element k has cell size cell_size * 2^k. The
- * finest level is summarised on up to \a threads threads, with the same result on any number. */
+ * finest level is summarised on up to \a threads threads, with the same result on any number.
+ * \a box as for makeSourceSamples(). */
 std::vector<SourceSamples>
-makeSourceSamplePyramid(const PointList& points, double cell_size, int coarser, int threads = 1);
+makeSourceSamplePyramid(const PointList& points,
+                        double cell_size,
+                        int coarser,
+                        int threads = 1,
+                        const Box* box = nullptr);
 
 } // namespace core
 } // namespace pcl_mi

@@ -349,6 +349,7 @@ makeLocalCloud(const PointList& points, double outlier_gap)
     zz += z * z;
   }
   cloud.rms_radius = std::sqrt(squared / static_cast<double>(count));
+  cloud.box = boundingBox(kept);
   cloud.covariance << xx, xy, xz, xy, yy, yz, xz, yz, zz;
   cloud.covariance /= static_cast<double>(count);
   return cloud;
@@ -383,14 +384,15 @@ bool
 makeGridGeometry(const PointList& points,
                  double resolution,
                  GridGeometry& g,
-                 std::string& error)
+                 std::string& error,
+                 const Box* box)
 {
   if (points.empty()) {
     error = "the target has no usable points";
     return false;
   }
-  Eigen::Vector3f min, max;
-  boundingBox(points, min, max);
+  const Box found = box ? *box : boundingBox(points);
+  const Eigen::Vector3f &min = found.min, &max = found.max;
   g.resolution = static_cast<float>(resolution);
   const Eigen::Vector3d first = (min.cast<double>() / resolution).array().floor();
   const Eigen::Vector3d last = (max.cast<double>() / resolution).array().floor();
@@ -414,10 +416,11 @@ buildTargetGrid(const PointList& points,
                 Feature feature,
                 const FeatureBinning& binning,
                 TargetGrid& grid,
-                std::string& error)
+                std::string& error,
+                const Box* box)
 {
   GridGeometry& g = grid.geometry;
-  if (!makeGridGeometry(points, resolution, g, error))
+  if (!makeGridGeometry(points, resolution, g, error, box))
     return false;
   grid.feature = feature;
   grid.binning = binning;

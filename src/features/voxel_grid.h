@@ -6,6 +6,7 @@
 #pragma once
 
 #include "features/feature_binning.h"
+#include "util/bounding_box.h"
 
 #include <pcl_mi/types.h>
 
@@ -39,6 +40,9 @@ struct LocalCloud {
   /** Degrees of azimuth about the input frame's z axis in which the kept points lie (see
    * azimuthCoverageDegrees()). */
   double azimuth_coverage_deg = 0.0;
+  /** Bounding box of the kept points (local frame), found once for every grid and summary
+   * built from them; zero where none are kept. */
+  Box box;
 };
 
 /** \brief Azimuth coverage (degrees) below which a cloud has a narrow field of view: a
@@ -130,24 +134,28 @@ struct TargetGrid {
 };
 
 /** \brief The grid covering \a points at \a resolution. False (with \a error) when the
- * cloud is empty or the grid would need more than kMaxGridCells voxels. */
+ * cloud is empty or the grid would need more than kMaxGridCells voxels. \a box, where
+ * given, is the points' bounding box, which is then not looked for again. */
 bool
 makeGridGeometry(const PointList& points,
                  double resolution,
                  GridGeometry& geometry,
-                 std::string& error);
+                 std::string& error,
+                 const Box* box = nullptr);
 
 /** \brief Builds the target grid from local points. False (with \a error) when the cloud
  * is empty or its extent needs more than kMaxGridCells voxels at this resolution. With
  * binning.range_quantile > 0, grid.binning.max_value is the grid's own quantile (see
- * FeatureBinning); backends bin the source with grid.binning. */
+ * FeatureBinning); backends bin the source with grid.binning. \a box as for
+ * makeGridGeometry(). */
 bool
 buildTargetGrid(const PointList& points,
                 double resolution,
                 Feature feature,
                 const FeatureBinning& binning,
                 TargetGrid& grid,
-                std::string& error);
+                std::string& error,
+                const Box* box = nullptr);
 
 } // namespace core
 } // namespace pcl_mi

@@ -64,5 +64,20 @@ boundingBox(const std::vector<Eigen::Vector3f>& points, Eigen::Vector3f& min, Ei
   max = Eigen::Vector3f(x1, y1, z1);
 }
 
+/** \brief An axis-aligned box: its least and its greatest corner. */
+struct Box {
+  Eigen::Vector3f min = Eigen::Vector3f::Zero();
+  Eigen::Vector3f max = Eigen::Vector3f::Zero();
+};
+
+/** \brief boundingBox() of the non-empty \a points as a Box. */
+inline Box
+boundingBox(const std::vector<Eigen::Vector3f>& points)
+{
+  Box box;
+  boundingBox(points, box.min, box.max);
+  return box;
+}
+
 } // namespace core
 } // namespace pcl_mi
