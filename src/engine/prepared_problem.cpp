@@ -408,12 +408,11 @@ PreparedProblem::appendTargetTasks(std::vector<std::function<void()>>& tasks, bo
       UpDirectionFromAxes up(cubes);
       const bool shared = estimate_up && !search_only_ &&
                           static_cast<std::uint32_t>(min_points) <= kUpMinimumCellPoints;
+      TargetDistributions::AxesVisitor on_axes;
+      if (shared)
+        on_axes = [&up](std::size_t i, const auto& axes) { up.look(i, axes); };
       if (!search_only_)
-        distributions_ = makeDistributions(
-            cubes, min_points,
-            shared ? TargetDistributions::AxesVisitor(
-                         [&up](std::size_t i, const auto& axes) { up.look(i, axes); })
-                   : TargetDistributions::AxesVisitor());
+        distributions_ = makeDistributions(cubes, min_points, on_axes);
       if (estimate_up)
         target_up_ = shared ? up.estimate() : estimateUpDirection(cubes);
     });

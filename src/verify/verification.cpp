@@ -69,8 +69,8 @@ constexpr double kFreeDirectionContrast = 0.05;
 constexpr double kNamedComponent = 0.4;
 
 /** Least share of a move that must cross a sample's surface for the sample to count in the
- * free-direction probe where the sensors stand at one place: the sine of the angle between the move
- * and the surface (about 17 deg). A road's slope and its noisy normals put a move along it
+ * free-direction probe where the sensors stand at one place: the sine of the angle between
+ * the move and the surface (about 17 deg). A road's slope and its noisy normals put a move along it
  * a few degrees off the ground, which must not count; steeper surfaces may
  * (docs/benchmarks.md, "The verdict where the sensors stand where they were"). */
 constexpr float kAcrossSurface = 0.3f;
@@ -92,6 +92,14 @@ constexpr double kSwingShare = 0.5;
 constexpr double kHeldTurnMiLoss = 0.1;
 
 const char* const kAxisNames[6] = {"x", "y", "z", "roll", "pitch", "yaw"};
+
+/** True where the unit move \a direction ([t, omega * radius]) is mostly a turn
+ * (kTurnShare). */
+bool
+mostlyATurn(const Eigen::Matrix<double, 6, 1>& direction)
+{
+  return direction.tail<3>().norm() >= kTurnShare;
+}
 
 double
 rmsRadius(const SourceSamples& source)
@@ -418,8 +426,7 @@ verifyPose(const TargetDistributions& target,
     omega[k] = step * unit_omega;
     delta[k] = step * unit_delta;
     const bool only_crossed = placement == SensorPlacement::kSamePlaceAndAxis ||
-                              (placement == SensorPlacement::kSamePlace &&
-                               direction.tail<3>().norm() < kTurnShare);
+                              (placement == SensorPlacement::kSamePlace && !mostlyATurn(direction));
     v.free_direction_contrast[k] = only_crossed ? probe.lostAcrossEitherWay(omega[k], delta[k])
                                                 : probe.lostEitherWay(omega[k], delta[k]);
   });
@@ -429,7 +436,7 @@ verifyPose(const TargetDistributions& target,
     const Eigen::Vector3d up = target_axes.row(2).transpose(); // the input z, local
     for (int k = 0; k < 2; ++k) {
       const Eigen::Vector3d turn = v.observability_directions.col(k).tail<3>();
-      if (isFree(v, k) && turn.norm() >= kTurnShare &&
+      if (isFree(v, k) && mostlyATurn(v.observability_directions.col(k)) &&
           std::abs(turn.dot(up)) <= kSwingShare * turn.norm())
         v.free_turn_mi_loss[k] =
             1.0 - meanEitherWay(rotation, translation, omega[k], delta[k], finest_mi) / mi;
