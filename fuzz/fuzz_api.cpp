@@ -93,15 +93,16 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
   FuzzInput in(data, size);
   Registration reg;
   reg.setMaximumIterations(30); // bounded work per input
-  Cloud::Ptr source;
+  Cloud::Ptr source, target;
   for (int step = 0; step < 12 && !in.empty(); ++step) {
-    switch (in.byte() % 10) {
+    switch (in.byte() % 11) {
     case 0:
       source = makeCloud(in);
       reg.setInputSource(source);
       break;
     case 1:
-      reg.setInputTarget(makeCloud(in));
+      target = makeCloud(in);
+      reg.setInputTarget(target);
       break;
     case 2: {
       auto indices = pcl::make_shared<pcl::Indices>();
@@ -149,6 +150,16 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
     case 8:
       (void)reg.evaluate(makeGuess(in));
       break;
+    case 9: {
+      // A cloud set earlier grows, shrinks or empties in place, into new memory: the object
+      // reads clouds in place and must not read where this one was.
+      const Cloud::Ptr& cloud = in.byte() % 2 ? source : target;
+      if (cloud) {
+        cloud->resize(in.byte() % 220);
+        cloud->points.shrink_to_fit();
+      }
+      break;
+    }
     default: {
       const double s = in.byte() % 2 ? 1e-7 : 1.0;
       reg.setSimplexSteps((Registration::Vector6d() << s, s, s, 0.1 * s, 0.1 * s, s).finished());

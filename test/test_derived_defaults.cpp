@@ -79,8 +79,8 @@ TEST(DerivedDefaults, NothingToDeriveFrom)
 {
   EXPECT_EQ(deriveResolution({}), 0.0);
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_EQ(deriveResolution({{nan, 0, 0}, {0, 0, 0}}), 0.0);
-  EXPECT_EQ(deriveResolution({{1, 2, 3}, {1, 2, 3}, {1, 2, 3}}), 0.0);
+  EXPECT_EQ(deriveResolution(PointList{{nan, 0, 0}, {0, 0, 0}}), 0.0);
+  EXPECT_EQ(deriveResolution(PointList{{1, 2, 3}, {1, 2, 3}, {1, 2, 3}}), 0.0);
   // Points on a line take their length: 64 m / 32 = 2 m.
   PointList line;
   for (int i = 0; i <= 640; ++i)

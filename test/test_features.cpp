@@ -12,6 +12,8 @@
 
 #include "test_data.h"
 
+#include <pcl/common/io.h>
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -106,6 +108,24 @@ TEST(LocalCloud, DropsNonFiniteNoReturnAndFarOutliers)
   ASSERT_EQ(cloud.points.size(), 101u);
   EXPECT_NEAR(cloud.centroid.x(), 0.1 * 5050 / 101, 1e-5);
   EXPECT_NEAR(cloud.centroid.y(), 0.05 * 5050 / 101, 1e-5);
+}
+
+TEST(LocalCloud, PointsReadInPlaceThroughAStrideAreTheListsToTheBit)
+{
+  // A real scan in a PCL cloud of 32-byte points, read through a view, against its copy.
+  const auto scan = test_data::loadScan("00", 0);
+  auto padded = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>();
+  pcl::copyPointCloud(*scan, *padded);
+  const PointList copy = test_data::pointList(*scan);
+  const pcl_mi::PointView view(&padded->front().x, sizeof(pcl::PointXYZI), padded->size(), padded);
+  const LocalCloud listed = makeLocalCloud(copy, 64.0);
+  const LocalCloud viewed = makeLocalCloud(view, 64.0);
+  ASSERT_EQ(listed.points.size(), viewed.points.size());
+  EXPECT_TRUE(listed.points == viewed.points);
+  EXPECT_EQ(listed.centroid, viewed.centroid);
+  EXPECT_EQ(listed.covariance, viewed.covariance);
+  EXPECT_EQ(listed.no_return, viewed.no_return);
+  EXPECT_EQ(listed.outliers, viewed.outliers);
 }
 
 TEST(LocalCloud, FirstPointJustBelowTheMedianKeepsItsGroupsBounds)

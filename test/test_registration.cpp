@@ -562,6 +562,68 @@ TEST(Registration, OtherPointTypesCompileFromTheHeader)
                    test_data::referenceTransform("02", 0, 6));
 }
 
+TEST(Registration, CloudsReadInPlaceGiveTheEnginesResultForCopies)
+{
+  // The adapter reads PCL clouds in place (32-byte points here); the engine gets copies.
+  using IntensityCloud = pcl::PointCloud<pcl::PointXYZI>;
+  auto source = pcl::make_shared<IntensityCloud>();
+  auto target = pcl::make_shared<IntensityCloud>();
+  pcl::copyPointCloud(*test_data::loadScan("00", 9), *source);
+  pcl::copyPointCloud(*test_data::loadScan("00", 0), *target);
+  pcl::MutualInformationRegistration<pcl::PointXYZI> reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  IntensityCloud aligned;
+  reg.align(aligned);
+  pcl_mi::RegistrationCore core;
+  core.setSource(test_data::pointList(*test_data::loadScan("00", 9)));
+  core.setTarget(test_data::pointList(*test_data::loadScan("00", 0)));
+  const pcl_mi::AlignmentResult copied = core.align(Eigen::Matrix4d::Identity());
+  EXPECT_EQ(reg.getFinalTransformation(), copied.transformation.cast<float>());
+  // Indices select a copy: the same as the engine given those points.
+  auto every_other = pcl::make_shared<pcl::Indices>();
+  pcl_mi::PointList selected;
+  for (std::size_t i = 0; i < source->size(); i += 2) {
+    every_other->push_back(static_cast<pcl::index_t>(i));
+    selected.push_back((*source)[i].getVector3fMap());
+  }
+  reg.setIndices(every_other);
+  reg.align(aligned);
+  core.setSource(selected);
+  EXPECT_EQ(reg.getFinalTransformation(), core.align(Eigen::Matrix4d::Identity()).transformation.cast<float>());
+}
+
+TEST(Registration, ACloudGrownInPlaceAfterItWasSetIsReadAgain)
+{
+  // The adapter reads the clouds in place: a target that grows (and so moves in memory)
+  // after setInputTarget(), and a source after align(), are read again, not where they were.
+  auto target = pcl::make_shared<Cloud>(*test_data::loadScan("00", 0));
+  auto source = pcl::make_shared<Cloud>(*test_data::loadScan("00", 9));
+  const Cloud full_target = *target, full_source = *source;
+  target->resize(target->size() / 2);
+  target->points.shrink_to_fit();
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setInputTarget(target);
+  reg.setInputSource(source);
+  target->insert(target->end(), full_target.begin() + static_cast<std::ptrdiff_t>(target->size()),
+                 full_target.end());
+  Cloud aligned;
+  reg.align(aligned);
+  pcl::MutualInformationRegistration<pcl::PointXYZ> fresh;
+  fresh.setInputTarget(pcl::make_shared<Cloud>(full_target));
+  fresh.setInputSource(pcl::make_shared<Cloud>(full_source));
+  fresh.align(aligned);
+  EXPECT_EQ(reg.getFinalTransformation(), fresh.getFinalTransformation());
+  // The source halved and grown back between align() and evaluate().
+  const Eigen::Matrix4f pose = fresh.getFinalTransformation();
+  const double expected = fresh.evaluate(pose);
+  source->resize(source->size() / 2);
+  source->points.shrink_to_fit();
+  source->insert(source->end(), full_source.begin() + static_cast<std::ptrdiff_t>(source->size()),
+                 full_source.end());
+  EXPECT_EQ(reg.evaluate(pose), expected);
+}
+
 } // namespace
 
 namespace {
@@ -589,7 +651,7 @@ TEST(Registration, SameResultForAnyNumberOfThreadsAndRuns)
 
 TEST(Registration, IndependentObjectsInParallelThreadsMatchSerialRuns)
 {
-  // What may be shared: input clouds (read only; every object copies what it needs). What
+  // What may be shared: input clouds (read only; every object reads them in place). What
   // may not: one registration object between threads.
   const auto source_a = test_data::loadScan("00", 9), target_a = test_data::loadScan("00", 0);
   const auto source_b = test_data::loadScan("02", 6), target_b = test_data::loadScan("02", 0);

@@ -46,6 +46,10 @@ namespace pcl {
  * Non-finite points, points at exactly (0, 0, 0) (many drivers' "no return") and far
  * outliers are skipped (docs/hardening.md).
  *
+ * The clouds are read in place when an alignment needs them, not copied. A target changed
+ * in place after an alignment prepared it is not seen until setInputTarget() hands it again;
+ * one that grew or moved in memory is read again by itself.
+ *
  * \note Not thread-safe; use one object per thread.
  */
 template <typename PointSource, typename PointTarget = PointSource, typename Scalar = float>
@@ -645,22 +649,45 @@ private:
   std::string
   inputError() const;
 
-  /** Identity of the source last handed to the core (cloud, indices), for evaluate(). */
-  struct ConvertedSource {
+  /** Hands target_ to the core where it is not the cloud last handed over (setInputTarget()
+   * hands it at once; a cloud grown or reallocated in place since is handed again). */
+  void
+  updateTarget();
+
+  /** Identity of a cloud last handed to the core: the cloud, its points' memory and count,
+   * and the indices taken (with their count). The core reads a cloud in place, so a cloud
+   * whose memory moved or whose size changed is handed over again before the core can read
+   * it. */
+  struct HandedCloud {
     const void* cloud = nullptr;
+    const void* points = nullptr;
+    std::size_t points_size = 0;
     const void* indices = nullptr;
     std::size_t size = 0;
     bool
-    operator==(const ConvertedSource& o) const
-    { return cloud == o.cloud && indices == o.indices && size == o.size && cloud; }
+    operator==(const HandedCloud& o) const
+    {
+      return cloud == o.cloud && points == o.points && points_size == o.points_size &&
+             indices == o.indices && size == o.size && cloud;
+    }
   };
+  /** The identity of \a cloud with \a indices (null for all points). */
+  template <typename Cloud>
+  static HandedCloud
+  identityOf(const Cloud* cloud, const pcl::Indices* indices)
+  {
+    if (!cloud)
+      return {};
+    return {cloud, cloud->points.data(), cloud->size(), indices, indices ? indices->size() : 0};
+  }
 
   pcl_mi::RegistrationCore core_;
   pcl_mi::AlignmentResult result_;
   std::string last_error_; // see getLastError()
   std::string warned_; // the backend warning already printed
   std::vector<std::string> warned_setters_; // inherited setters already warned about
-  ConvertedSource converted_source_;
+  HandedCloud handed_source_;
+  HandedCloud handed_target_;
 };
 
 } // namespace pcl

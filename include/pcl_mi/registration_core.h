@@ -72,6 +72,24 @@ public:
   void
   setSource(PointList points);
 
+  /** \brief Sets the target points without copying them: they are read through \a points
+   * whenever the target is prepared (at the first align() or evaluate() after this call or
+   * after a change of parameters) and, for a derived resolution, at once. Their memory must
+   * stay valid until the next setTarget() or setTargetView() (the view's owner, when set,
+   * keeps it); changes made to them after the target was prepared are not seen. */
+  void
+  setTargetView(PointView points);
+
+  /** \brief Sets the source points without copying them, as setTargetView(). */
+  void
+  setSourceView(PointView points);
+
+  /** A temporary list would be gone before it is read: setTarget() and setSource() keep one. */
+  void
+  setTargetView(PointList&&) = delete;
+  void
+  setSourceView(PointList&&) = delete;
+
   /** \brief Maximises the mutual information starting from \a guess (source to target),
    * with at most \a max_iterations Nelder-Mead iterations over every start and level. */
   AlignmentResult

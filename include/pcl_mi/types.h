@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -21,6 +22,74 @@ namespace pcl_mi {
 
 /** \brief Point coordinates as the core consumes them: plain xyz, no point type. */
 using PointList = std::vector<Eigen::Vector3f>;
+
+/** \brief Read-only view of points kept elsewhere: point i's x, y and z are three
+ * consecutive floats at \a stride bytes per point from the first point's x, as in a PCL cloud
+ * of any point type with x, y and z. The core reads the points through it instead of
+ * copying them first; the memory must stay valid and unchanged while the view is in use,
+ * which owner(), when set, ensures for as long as the view (or a copy of it) lives. */
+class PointView {
+public:
+  PointView() = default;
+
+  /** \brief Views \a points, which must outlive the view (no owner). */
+  PointView(const PointList& points) // NOLINT: a list is a view's most common source
+  : first_(points.empty() ? nullptr : reinterpret_cast<const unsigned char*>(points.data()->data()))
+  , stride_(sizeof(Eigen::Vector3f))
+  , size_(points.size())
+  {}
+
+  /** \brief Views \a size points whose first x is at \a first_x, \a stride bytes apart;
+   * \a owner (optional) keeps their memory alive. */
+  PointView(const float* first_x,
+            std::size_t stride,
+            std::size_t size,
+            std::shared_ptr<const void> owner = nullptr)
+  : first_(reinterpret_cast<const unsigned char*>(first_x))
+  , stride_(stride)
+  , size_(first_x ? size : 0)
+  , owner_(std::move(owner))
+  {}
+
+  std::size_t
+  size() const
+  {
+    return size_;
+  }
+  bool
+  empty() const
+  {
+    return size_ == 0;
+  }
+  Eigen::Vector3f
+  operator[](std::size_t i) const
+  {
+    const float* p = reinterpret_cast<const float*>(first_ + i * stride_);
+    return {p[0], p[1], p[2]};
+  }
+  /** \brief What keeps the points alive (null for a view that does not own them). */
+  const std::shared_ptr<const void>&
+  owner() const
+  {
+    return owner_;
+  }
+
+private:
+  const unsigned char* first_ = nullptr;
+  std::size_t stride_ = sizeof(Eigen::Vector3f);
+  std::size_t size_ = 0;
+  std::shared_ptr<const void> owner_;
+};
+
+/** \brief A view that owns \a points. */
+inline PointView
+ownedView(PointList points)
+{
+  auto owned = std::make_shared<const PointList>(std::move(points));
+  const PointList& list = *owned;
+  return PointView(list.empty() ? nullptr : list.data()->data(), sizeof(Eigen::Vector3f),
+                   list.size(), std::move(owned));
+}
 
 /** \brief Joint histogram of target (X) and source (Y) voxel feature bins over the overlap.
  *

@@ -12,7 +12,7 @@ namespace pcl_mi {
 namespace core {
 
 double
-deriveResolution(const PointList& points)
+deriveResolution(const PointView& points)
 {
   Eigen::Vector3d extent;
   if (!bulkExtent(points, true, extent))

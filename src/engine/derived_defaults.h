@@ -23,7 +23,7 @@ constexpr double kExtentVoxels = 32.0;
  * (PreparedProblem::prepare()). 0 when the usable points (finite, not at the
  * origin) of the sample all coincide or there are none. */
 double
-deriveResolution(const PointList& points);
+deriveResolution(const PointView& points);
 
 /** \brief \a requested with every derived value made concrete: a resolution of 0 becomes
  * \a derived_resolution, and translation steps given in voxels (negative) become clouds'

@@ -36,7 +36,7 @@ rigidTransformError(const Eigen::Matrix4d& m, double tolerance)
 }
 
 bool
-bulkExtent(const PointList& points, bool skip_origin, Eigen::Vector3d& extent)
+bulkExtent(const PointView& points, bool skip_origin, Eigen::Vector3d& extent)
 {
   constexpr std::size_t kSamples = 4096;
   std::vector<float> axis[3];
@@ -60,7 +60,7 @@ bulkExtent(const PointList& points, bool skip_origin, Eigen::Vector3d& extent)
 }
 
 std::string
-resolutionError(const PointList& points, double resolution, const char* which)
+resolutionError(const PointView& points, double resolution, const char* which)
 {
   Eigen::Vector3d extent;
   if (!bulkExtent(points, false, extent))

@@ -32,14 +32,14 @@ rigidTransformError(const Eigen::Matrix4d& m, double tolerance = 1e-4);
  * 4096 of them, so far outliers do not count; false when the sample holds no finite point
  * (counting points at exactly (0, 0, 0) only unless \a skip_origin). */
 bool
-bulkExtent(const PointList& points, bool skip_origin, Eigen::Vector3d& extent);
+bulkExtent(const PointView& points, bool skip_origin, Eigen::Vector3d& extent);
 
 /** \brief Empty when a grid at \a resolution can cover the bulk of \a points (the 5-95 %
  * range of a sample on every axis, so far outliers do not count); otherwise a message that
  * names the resolution as too fine and the coarsest one that would fit. Run before the
  * outlier removal, whose gap follows the resolution. */
 std::string
-resolutionError(const PointList& points, double resolution, const char* which);
+resolutionError(const PointView& points, double resolution, const char* which);
 
 /** \brief Empty when \a cloud has structure at \a resolution: at least two principal axes
  * spread kMinimumSpreadVoxels voxels or more; otherwise whether its points coincide, lie

@@ -122,7 +122,7 @@ PreparedProblem::resolveParameters()
 }
 
 void
-PreparedProblem::setTarget(PointList points)
+PreparedProblem::setTargetView(PointView points)
 {
   target_input_ = std::move(points);
   has_target_ = true;
@@ -135,7 +135,7 @@ PreparedProblem::setTarget(PointList points)
 }
 
 void
-PreparedProblem::setSource(PointList points)
+PreparedProblem::setSourceView(PointView points)
 {
   source_input_ = std::move(points);
   has_source_ = true;

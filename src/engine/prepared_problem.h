@@ -55,10 +55,29 @@ public:
     return parameters_;
   }
 
+  /** \brief The clouds to align, kept. */
   void
-  setTarget(PointList points);
+  setTarget(PointList points)
+  {
+    setTargetView(ownedView(std::move(points)));
+  }
   void
-  setSource(PointList points);
+  setSource(PointList points)
+  {
+    setSourceView(ownedView(std::move(points)));
+  }
+  /** \brief The clouds to align, read through \a points when prepare() needs them (and, for
+   * a derived resolution, the target's extent at once), as RegistrationCore::setTargetView()
+   * says. */
+  void
+  setTargetView(PointView points);
+  void
+  setSourceView(PointView points);
+  /** A temporary list would be gone before it is read. */
+  void
+  setTargetView(PointList&&) = delete;
+  void
+  setSourceView(PointList&&) = delete;
   /** \brief How many times setTarget() and setSource() were called: a copy of a cloud taken
    * at one count is still the cloud while the count stays. */
   std::uint64_t
@@ -81,12 +100,12 @@ public:
     search_only_ = search_only;
   }
   /** \brief The clouds as set, before any preparation. */
-  const PointList&
+  const PointView&
   targetInput() const
   {
     return target_input_;
   }
-  const PointList&
+  const PointView&
   sourceInput() const
   {
     return source_input_;
@@ -257,7 +276,7 @@ private:
   Parameters requested_, parameters_;
   /** deriveResolution() of the target; 0 while not needed or without a target. */
   double derived_resolution_ = 0.0;
-  PointList target_input_, source_input_;
+  PointView target_input_, source_input_;
   bool has_target_ = false, has_source_ = false;
   std::uint64_t target_revision_ = 0, source_revision_ = 0;
   bool search_only_ = false;

@@ -204,11 +204,11 @@ struct RegistrationCore::Impl {
     // Only a cloud that changed is handed over again, so that a reused target (a map) is not
     // prepared anew as the reverse source at every untrusted alignment. Revisions start at 1.
     if (reverse_target_revision != problem.sourceRevision()) {
-      reverse->setTarget(problem.sourceInput());
+      reverse->setTargetView(problem.sourceInput());
       reverse_target_revision = problem.sourceRevision();
     }
     if (reverse_source_revision != problem.targetRevision()) {
-      reverse->setSource(problem.targetInput());
+      reverse->setSourceView(problem.targetInput());
       reverse_source_revision = problem.targetRevision();
     }
     const AlignmentResult back = reverse->align(guess.inverse(), max_iterations);
@@ -294,6 +294,18 @@ void
 RegistrationCore::setSource(PointList points)
 {
   impl_->problem.setSource(std::move(points));
+}
+
+void
+RegistrationCore::setTargetView(PointView points)
+{
+  impl_->problem.setTargetView(std::move(points));
+}
+
+void
+RegistrationCore::setSourceView(PointView points)
+{
+  impl_->problem.setSourceView(std::move(points));
 }
 
 AlignmentResult

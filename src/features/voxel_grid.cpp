@@ -296,7 +296,7 @@ sectorOf(double x, double y, int sectors)
 } // namespace
 
 LocalCloud
-makeLocalCloud(const PointList& points, double outlier_gap)
+makeLocalCloud(const PointView& points, double outlier_gap)
 {
   // Built in place in the output, without an intermediate copy: clouds of tens of millions
   // of points are worth 12 bytes a point.
@@ -310,7 +310,8 @@ makeLocalCloud(const PointList& points, double outlier_gap)
   };
   std::size_t finite = 0;
   kept.reserve(points.size());
-  for (const auto& p : points) {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f p = points[i];
     finite += p.allFinite();
     if (usable(p))
       kept.push_back(p);

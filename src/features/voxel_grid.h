@@ -65,7 +65,7 @@ azimuthCoverageDegrees(const PointList& points);
  * coordinates are at least \a outlier_gap apart; a point outside the largest group of any
  * axis is dropped (as is one more than 2048 gaps from the axis's median). */
 LocalCloud
-makeLocalCloud(const PointList& points, double outlier_gap);
+makeLocalCloud(const PointView& points, double outlier_gap);
 
 /** \brief Axis-aligned voxel grid: cell (ix, iy, iz) covers
  * origin + resolution * [ix, ix + 1) x [iy, iy + 1) x [iz, iz + 1). */

@@ -12,9 +12,39 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 namespace pcl_mi {
 namespace detail {
+
+/** \brief The points of \a cloud (those of \a indices, in their order, when not null) as
+ * the core reads them: in place, kept alive by \a cloud, where every point is taken and
+ * the point type holds x, y and z as three consecutive floats (as every PCL type does);
+ * otherwise a copy. */
+template <typename PointT>
+PointView
+pointsOf(const std::shared_ptr<const pcl::PointCloud<PointT>>& cloud, const pcl::Indices* indices)
+{
+  if (!cloud || cloud->empty())
+    return {};
+  using Coordinate = std::decay_t<decltype(std::declval<const PointT&>().x)>;
+  if constexpr (std::is_same<Coordinate, float>::value) {
+    const PointT& first = cloud->front();
+    const auto* x = reinterpret_cast<const unsigned char*>(&first.x);
+    if (!indices && reinterpret_cast<const unsigned char*>(&first.y) == x + sizeof(float) &&
+        reinterpret_cast<const unsigned char*>(&first.z) == x + 2 * sizeof(float))
+      return PointView(&first.x, sizeof(PointT), cloud->size(), cloud);
+  }
+  PointList points;
+  const std::size_t n = indices ? indices->size() : cloud->size();
+  points.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const PointT& p = (*cloud)[indices ? static_cast<std::size_t>((*indices)[k]) : k];
+    points.emplace_back(p.x, p.y, p.z);
+  }
+  return ownedView(std::move(points));
+}
 
 /** \brief Largest coordinate magnitude a k-d tree query or point may have: FLANN's
  * squared distances overflow beyond it and its assertions abort the process. */
@@ -148,7 +178,7 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setInputSource(
     Base::setInputSource(cloud);
   }
   converged_ = false;
-  converted_source_ = ConvertedSource{};
+  handed_source_ = HandedCloud{};
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -164,40 +194,35 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::setInputTarget(
     Base::setInputTarget(cloud);
   }
   converged_ = false;
-  pcl_mi::PointList points;
-  if (cloud) {
-    points.reserve(cloud->size());
-    for (const auto& p : *cloud)
-      points.emplace_back(p.x, p.y, p.z);
-  }
-  core_.setTarget(std::move(points));
+  handed_target_ = HandedCloud{};
+  updateTarget();
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+MutualInformationRegistration<PointSource, PointTarget, Scalar>::updateTarget()
+{
+  const HandedCloud current = identityOf(target_.get(), nullptr);
+  if (current == handed_target_)
+    return;
+  core_.setTargetView(pcl_mi::detail::pointsOf(target_, nullptr));
+  handed_target_ = current;
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 std::string
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::updateSource()
 {
-  converted_source_ = ConvertedSource{};
-  pcl_mi::PointList points;
-  if (input_) {
-    if (indices_) {
-      const std::string bad_index = indexError();
-      if (!bad_index.empty())
-        return bad_index;
-      points.reserve(indices_->size());
-      for (const auto i : *indices_) {
-        const PointSource& p = (*input_)[static_cast<std::size_t>(i)];
-        points.emplace_back(p.x, p.y, p.z);
-      }
-    }
-    else {
-      points.reserve(input_->size());
-      for (const auto& p : *input_)
-        points.emplace_back(p.x, p.y, p.z);
-    }
+  handed_source_ = HandedCloud{};
+  // The base class's own (fake) indices take every point, in order.
+  const pcl::Indices* indices = this->fake_indices_ ? nullptr : indices_.get();
+  if (input_ && indices) {
+    const std::string bad_index = indexError();
+    if (!bad_index.empty())
+      return bad_index;
   }
-  core_.setSource(std::move(points));
-  converted_source_ = {input_.get(), indices_.get(), indices_ ? indices_->size() : 0};
+  core_.setSourceView(pcl_mi::detail::pointsOf(input_, indices));
+  handed_source_ = identityOf(input_.get(), indices_.get());
   return {};
 }
 
@@ -378,10 +403,10 @@ double
 MutualInformationRegistration<PointSource, PointTarget, Scalar>::evaluate(
     const Matrix4& pose)
 {
-  // Cost surfaces call this thousands of times: convert the source only when it changed.
-  const ConvertedSource current{input_.get(), indices_.get(), indices_ ? indices_->size() : 0};
+  // Cost surfaces call this thousands of times: hand the source over only when it changed.
+  updateTarget();
   std::string error;
-  if (!(current == converted_source_))
+  if (!(identityOf(input_.get(), indices_.get()) == handed_source_))
     error = updateSource();
   if (!error.empty()) {
     PCL_ERROR("[pcl::%s::evaluate] %s.\n", getClassName().c_str(), error.c_str());
@@ -405,6 +430,7 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::computeTransfor
 
   // setMaximumIterations() is the base class's and cannot refuse a value: checked here.
   const std::string bad_cap = pcl_mi::maxIterationsError(max_iterations_);
+  updateTarget();
   const std::string source_error = bad_cap.empty() ? updateSource() : std::string();
   if (!bad_cap.empty()) {
     result_.error = "invalid parameters: " + bad_cap + " (setMaximumIterations)";
