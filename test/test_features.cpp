@@ -128,6 +128,26 @@ TEST(LocalCloud, PointsReadInPlaceThroughAStrideAreTheListsToTheBit)
   EXPECT_EQ(listed.outliers, viewed.outliers);
 }
 
+TEST(LocalCloud, TheSameReadOnTwoThreads)
+{
+  // A real scan with no-returns and NaNs in both halves, so that the second half's points
+  // move down behind the first's.
+  PointList points = test_data::pointList(*test_data::loadScan("00", 0));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < points.size(); i += 97)
+    points[i] = i % 2 ? Eigen::Vector3f::Zero() : Eigen::Vector3f(nan, 1.0f, 2.0f);
+  const LocalCloud one = makeLocalCloud(points, 64.0, 1);
+  const LocalCloud two = makeLocalCloud(points, 64.0, 2);
+  ASSERT_EQ(one.points.size(), two.points.size());
+  EXPECT_TRUE(one.points == two.points);
+  EXPECT_EQ(one.centroid, two.centroid);
+  EXPECT_EQ(one.covariance, two.covariance);
+  EXPECT_EQ(one.non_finite, two.non_finite);
+  EXPECT_EQ(one.no_return, two.no_return);
+  EXPECT_GT(two.non_finite, 500u);
+  EXPECT_GT(two.no_return, 500u);
+}
+
 TEST(LocalCloud, FirstPointJustBelowTheMedianKeepsItsGroupsBounds)
 {
   // The first point lies in the cell just below the median along x (cells of half the gap,

@@ -173,13 +173,14 @@ PreparedProblem::prepare(std::string& error)
       return false;
   }
   // The local clouds first: everything else is built from them. Only the changed clouds
-  // are tasks, so a new source alone starts no thread.
+  // are tasks; a new source alone reads its points on the threads itself.
   const double gap = kOutlierGapVoxels * resolution;
+  const int alone = new_target != new_source ? parameters_.num_threads : 1;
   std::vector<std::function<void()>> local_tasks;
   if (new_target)
-    local_tasks.emplace_back([&] { target_ = makeLocalCloud(target_input_, gap); });
+    local_tasks.emplace_back([&] { target_ = makeLocalCloud(target_input_, gap, alone); });
   if (new_source)
-    local_tasks.emplace_back([&] { source_ = makeLocalCloud(source_input_, gap); });
+    local_tasks.emplace_back([&] { source_ = makeLocalCloud(source_input_, gap, alone); });
   parallelFor(static_cast<int>(local_tasks.size()), parameters_.num_threads,
               [&](int task) { local_tasks[static_cast<std::size_t>(task)](); });
   if (target_.points.size() < kMinimumPoints) {

@@ -63,9 +63,10 @@ azimuthCoverageDegrees(const PointList& points);
  *
  * Far outliers: along each axis the points fall into groups wherever two consecutive
  * coordinates are at least \a outlier_gap apart; a point outside the largest group of any
- * axis is dropped (as is one more than 2048 gaps from the axis's median). */
+ * axis is dropped (as is one more than 2048 gaps from the axis's median). The input is read
+ * on up to two of \a threads threads; the result is the same on any number. */
 LocalCloud
-makeLocalCloud(const PointView& points, double outlier_gap);
+makeLocalCloud(const PointView& points, double outlier_gap, int threads = 1);
 
 /** \brief Axis-aligned voxel grid: cell (ix, iy, iz) covers
  * origin + resolution * [ix, ix + 1) x [iy, iy + 1) x [iz, iz + 1). */
