@@ -161,28 +161,32 @@ PreparedProblem::prepare(std::string& error)
   if (new_target && !backends_.choose(parameters_.backend, parameters_.sampling, error))
     return false;
 
-  // A resolution too fine for the clouds is named as such before the outlier gap, which
-  // follows it, would split them into fragments.
-  const double resolution = parameters_.grid.resolution;
-  for (const auto& [is_new, input, which] :
-       {std::make_tuple(new_target, &target_input_, "target"),
-        std::make_tuple(new_source, &source_input_, "source")}) {
-    if (is_new)
-      error = resolutionError(*input, resolution, which);
-    if (!error.empty())
-      return false;
-  }
   // The local clouds first: everything else is built from them. Only the changed clouds
-  // are tasks; a new source alone reads its points on the threads itself.
+  // are tasks; a new source alone reads its points on the threads itself. A resolution too
+  // fine for a cloud is named as such before the outlier gap, which follows it, would
+  // split the cloud into fragments.
+  const double resolution = parameters_.grid.resolution;
   const double gap = kOutlierGapVoxels * resolution;
   const int alone = new_target != new_source ? parameters_.num_threads : 1;
+  std::string target_error, source_error;
   std::vector<std::function<void()>> local_tasks;
   if (new_target)
-    local_tasks.emplace_back([&] { target_ = makeLocalCloud(target_input_, gap, alone); });
+    local_tasks.emplace_back([&] {
+      target_error = resolutionError(target_input_, resolution, "target");
+      if (target_error.empty())
+        target_ = makeLocalCloud(target_input_, gap, alone);
+    });
   if (new_source)
-    local_tasks.emplace_back([&] { source_ = makeLocalCloud(source_input_, gap, alone); });
+    local_tasks.emplace_back([&] {
+      source_error = resolutionError(source_input_, resolution, "source");
+      if (source_error.empty())
+        source_ = makeLocalCloud(source_input_, gap, alone);
+    });
   parallelFor(static_cast<int>(local_tasks.size()), parameters_.num_threads,
               [&](int task) { local_tasks[static_cast<std::size_t>(task)](); });
+  error = target_error.empty() ? source_error : target_error;
+  if (!error.empty())
+    return false;
   if (target_.points.size() < kMinimumPoints) {
     error = describeTooFew("target", target_);
     return false;
