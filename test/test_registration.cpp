@@ -590,7 +590,8 @@ TEST(Registration, CloudsReadInPlaceGiveTheEnginesResultForCopies)
   reg.setIndices(every_other);
   reg.align(aligned);
   core.setSource(selected);
-  EXPECT_EQ(reg.getFinalTransformation(), core.align(Eigen::Matrix4d::Identity()).transformation.cast<float>());
+  const pcl_mi::AlignmentResult selected_copy = core.align(Eigen::Matrix4d::Identity());
+  EXPECT_EQ(reg.getFinalTransformation(), selected_copy.transformation.cast<float>());
 }
 
 TEST(Registration, ACloudGrownInPlaceAfterItWasSetIsReadAgain)
