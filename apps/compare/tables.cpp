@@ -72,8 +72,8 @@ methodColumnWidth(const std::vector<std::string>& methods)
 
 /** Where MI's time goes: per method, the median over its rows of each stage of
  * pcl_mi::AlignmentResult::stages (the search's levels summed), and of what lies outside
- * the engine (the adapter's copies of the clouds, the output cloud). Rows read from a CSV
- * carry no stages and are left out. */
+ * the engine (PCL's align() and the output cloud, the target's derived resolution). Rows
+ * read from a CSV carry no stages and are left out. */
 void
 printStages(const std::vector<Row>& rows, const std::vector<std::string>& methods)
 {
