@@ -110,6 +110,23 @@ TEST(LocalCloud, DropsNonFiniteNoReturnAndFarOutliers)
   EXPECT_NEAR(cloud.centroid.y(), 0.05 * 5050 / 101, 1e-5);
 }
 
+namespace {
+
+/** The same local cloud to the bit: points, sums and counts. */
+void
+expectTheSameLocalCloud(const LocalCloud& a, const LocalCloud& b)
+{
+  ASSERT_EQ(a.points.size(), b.points.size());
+  EXPECT_TRUE(a.points == b.points);
+  EXPECT_EQ(a.centroid, b.centroid);
+  EXPECT_EQ(a.covariance, b.covariance);
+  EXPECT_EQ(a.non_finite, b.non_finite);
+  EXPECT_EQ(a.no_return, b.no_return);
+  EXPECT_EQ(a.outliers, b.outliers);
+}
+
+} // namespace
+
 TEST(LocalCloud, PointsReadInPlaceThroughAStrideAreTheListsToTheBit)
 {
   // A real scan in a PCL cloud of 32-byte points, read through a view, against its copy.
@@ -118,14 +135,7 @@ TEST(LocalCloud, PointsReadInPlaceThroughAStrideAreTheListsToTheBit)
   pcl::copyPointCloud(*scan, *padded);
   const PointList copy = test_data::pointList(*scan);
   const pcl_mi::PointView view(&padded->front().x, sizeof(pcl::PointXYZI), padded->size(), padded);
-  const LocalCloud listed = makeLocalCloud(copy, 64.0);
-  const LocalCloud viewed = makeLocalCloud(view, 64.0);
-  ASSERT_EQ(listed.points.size(), viewed.points.size());
-  EXPECT_TRUE(listed.points == viewed.points);
-  EXPECT_EQ(listed.centroid, viewed.centroid);
-  EXPECT_EQ(listed.covariance, viewed.covariance);
-  EXPECT_EQ(listed.no_return, viewed.no_return);
-  EXPECT_EQ(listed.outliers, viewed.outliers);
+  expectTheSameLocalCloud(makeLocalCloud(copy, 64.0), makeLocalCloud(view, 64.0));
 }
 
 TEST(LocalCloud, TheSameReadOnTwoThreads)
@@ -136,14 +146,8 @@ TEST(LocalCloud, TheSameReadOnTwoThreads)
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (std::size_t i = 0; i < points.size(); i += 97)
     points[i] = i % 2 ? Eigen::Vector3f::Zero() : Eigen::Vector3f(nan, 1.0f, 2.0f);
-  const LocalCloud one = makeLocalCloud(points, 64.0, 1);
   const LocalCloud two = makeLocalCloud(points, 64.0, 2);
-  ASSERT_EQ(one.points.size(), two.points.size());
-  EXPECT_TRUE(one.points == two.points);
-  EXPECT_EQ(one.centroid, two.centroid);
-  EXPECT_EQ(one.covariance, two.covariance);
-  EXPECT_EQ(one.non_finite, two.non_finite);
-  EXPECT_EQ(one.no_return, two.no_return);
+  expectTheSameLocalCloud(makeLocalCloud(points, 64.0, 1), two);
   EXPECT_GT(two.non_finite, 500u);
   EXPECT_GT(two.no_return, 500u);
 }

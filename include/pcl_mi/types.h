@@ -32,11 +32,13 @@ class PointView {
 public:
   PointView() = default;
 
-  /** \brief Views \a points, which must outlive the view (no owner). */
-  PointView(const PointList& points) // NOLINT: a list is a view's most common source
+  /** \brief Views \a points, which must outlive the view unless \a owner keeps them. */
+  PointView(const PointList& points, // NOLINT: a list is a view's most common source
+            std::shared_ptr<const void> owner = nullptr)
   : first_(points.empty() ? nullptr : reinterpret_cast<const unsigned char*>(points.data()->data()))
   , stride_(sizeof(Eigen::Vector3f))
   , size_(points.size())
+  , owner_(std::move(owner))
   {}
 
   /** \brief Views \a size points whose first x is at \a first_x, \a stride bytes apart;
@@ -86,9 +88,8 @@ inline PointView
 ownedView(PointList points)
 {
   auto owned = std::make_shared<const PointList>(std::move(points));
-  const PointList& list = *owned;
-  return PointView(list.empty() ? nullptr : list.data()->data(), sizeof(Eigen::Vector3f),
-                   list.size(), std::move(owned));
+  const PointList& list = *owned; // bound before the owner moves into the view
+  return PointView(list, std::move(owned));
 }
 
 /** \brief Joint histogram of target (X) and source (Y) voxel feature bins over the overlap.
