@@ -187,3 +187,35 @@ TEST(NelderMead, RunsInLockstepEndAsEachAlone)
   EXPECT_EQ(rounds, longest);
   EXPECT_EQ(largest_batch, 6 * 7); // the six first simplices in one round
 }
+
+TEST(NelderMead, SparesOfferedLeaveTheRunAsAlone)
+{
+  // Each spare's value handed over before the reply: the run ends exactly where it ends
+  // alone, with fewer requests wherever it used a spare (an inside contraction).
+  for (const int cap : {3, 40, 2000}) {
+    SCOPED_TRACE(cap);
+    const auto alone = minimizeNelderMead(plateauCost, Eigen::VectorXd::Zero(6), paperSteps(),
+                                          tightOptions(cap));
+    pcl_mi::core::NelderMeadRun run(Eigen::VectorXd::Zero(6), paperSteps(), tightOptions(cap));
+    int offered = 0;
+    std::vector<double> values;
+    while (!run.finished()) {
+      if (const Eigen::VectorXd* spare = run.spare()) {
+        ASSERT_EQ(run.request().size(), 1u); // beside a reflection asked alone
+        run.offerSpare(plateauCost(*spare));
+        ++offered;
+      }
+      values.clear();
+      for (const Eigen::VectorXd& x : run.request())
+        values.push_back(plateauCost(x));
+      run.reply(values);
+    }
+    const auto helped = run.result();
+    expectSameRun(helped, alone);
+    EXPECT_GT(offered, 0);
+    if (cap == 2000) {
+      EXPECT_TRUE(helped.converged);
+      EXPECT_LT(helped.requests, alone.requests);
+    }
+  }
+}

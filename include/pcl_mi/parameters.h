@@ -313,8 +313,9 @@ struct Parameters {
   SearchParameters search;
   RefinementParameters refinement;
   BackendParameters backend;
-  /** Threads one alignment may use: with 2 or more, the two starts of the symmetric search
-   * run concurrently. The result is the same for any number of threads. */
+  /** Threads one alignment may use: with 2 or more, the preparation, the searches, the
+   * refinement and the verification split their work over two. The result is the same for
+   * any number of threads. */
   int num_threads = 2;
 
   /** \brief The paper's exact method: 1 m voxels and the [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]

@@ -3,6 +3,8 @@
  */
 #include "search/coarse_to_fine.h"
 
+#include "search/two_evaluators.h"
+
 #include "util/parallel.h"
 #include "util/stage_clock.h"
 
@@ -69,44 +71,31 @@ public:
 
   /** Independent searches on one level, each as search() would run it alone. Where the
    * costs prefer batches (a GPU), they run in lockstep with one batch of every search's
-   * points per round; otherwise each evaluator, on a thread of its own where threads allow,
-   * takes the next search as soon as it is done with one. The results are the same either
-   * way: every search's cap is fixed before it starts. */
+   * points per round; otherwise on two evaluators, one thread each where threads allow
+   * (runOnTwoEvaluators()). The results are the same either way: every search's cap is fixed
+   * before it starts. */
   std::vector<NelderMeadResult>
   searchAll(int level, const std::vector<Start>& starts)
   {
     std::vector<NelderMeadRun> runs;
     for (const Start& s : starts)
       runs.emplace_back(s.x0, s.steps, options(level, s.cap));
-    if (costs_.prefersBatches()) {
-      result_.batches += runTogether(runs, [&](const std::vector<Eigen::VectorXd>& xs,
-                                               std::vector<double>& values) {
-        costs_.costs(level, 0, xs, values);
-      });
-    }
-    else {
-      // Taken in turn rather than in pairs: a short search does not leave its evaluator
-      // waiting for its partner's long one. One thread per evaluator.
-      int rounds[2] = {0, 0};
-      parallelForOnWorkers(static_cast<int>(runs.size()), std::min(2, o_.num_threads),
-                           [&](int i, int slot) {
-                             rounds[slot] += drive(runs[static_cast<std::size_t>(i)], level, slot);
-                           });
-      result_.batches += rounds[0] + rounds[1];
-    }
+    const BatchFunction batch = [&](const std::vector<Eigen::VectorXd>& xs,
+                                    std::vector<double>& values) {
+      costs_.costs(level, 0, xs, values);
+    };
+    if (costs_.prefersBatches())
+      result_.batches += runTogether(runs, batch);
+    else if (o_.num_threads >= 2)
+      result_.batches += runOnTwoEvaluators(
+          runs, [&](int slot, const Eigen::VectorXd& x) { return costs_.cost(level, slot, x); });
+    else
+      for (NelderMeadRun& run : runs)
+        result_.batches += runToEnd(run, batch);
     std::vector<NelderMeadResult> results;
     for (const NelderMeadRun& run : runs)
       results.push_back(run.result());
     return results;
-  }
-
-  /** Runs \a run to its end by evaluator \a slot; returns the rounds it took. */
-  int
-  drive(NelderMeadRun& run, int level, int slot)
-  {
-    return runToEnd(run, [&](const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values) {
-      costs_.costs(level, slot, xs, values);
-    });
   }
 
   NelderMeadOptions

@@ -88,7 +88,8 @@ struct CoarseToFineResult {
   std::vector<NelderMeadResult> alternatives;
   int iterations = 0;     ///< summed over every search
   int evaluations = 0;    ///< summed over every search
-  int batches = 0;        ///< calls of LevelCosts::costs(), summed over every search
+  int batches = 0;        ///< requests answered (one batch each where the costs prefer
+                          ///< batches), summed over every search
   /** The turns scanned_starts started from, as (roll, pitch, yaw) in rad. */
   std::vector<Eigen::Vector3d> scanned_turns;
   /** One stage per level ("search 4 m", ...) and "restarts", with its evaluations. */

@@ -172,6 +172,23 @@ NelderMeadRun::replaceWorst(Candidate c)
   beginIteration();
 }
 
+const Eigen::VectorXd*
+NelderMeadRun::spare() const
+{
+  const bool reflection_alone =
+      phase_ == Phase::kCandidates && asked_.size() == 1 && asked_.front() == kReflected;
+  return reflection_alone && !known_[kInsideContracted] && !request_.empty()
+             ? &candidates_[kInsideContracted]
+             : nullptr;
+}
+
+void
+NelderMeadRun::offerSpare(double value)
+{
+  candidate_values_[kInsideContracted] = value;
+  known_[kInsideContracted] = true;
+}
+
 NelderMeadResult
 NelderMeadRun::result() const
 {

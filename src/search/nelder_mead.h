@@ -73,6 +73,18 @@ public:
   void
   reply(const std::vector<double>& values);
 
+  /** \brief A point the run may ask for right after request(), worth evaluating beside it
+   * where an evaluator would otherwise wait: while the reflection is asked alone, the inside
+   * contraction, the step that most iterations which need a second point take near an
+   * optimum. Null where there is none. */
+  const Eigen::VectorXd*
+  spare() const;
+
+  /** \brief The value of spare(), handed over before reply(): the run uses it where it
+   * needs that point, as if it had asked for it, so the result is the same either way. */
+  void
+  offerSpare(double value);
+
   /** \brief The best vertex so far, with the counts (final once finished()). */
   NelderMeadResult
   result() const;
