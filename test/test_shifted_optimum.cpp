@@ -76,3 +76,34 @@ TEST(ShiftedOptimum, NoneAtTheReferenceAndTheReferenceFromASlideAcross)
     EXPECT_LT(translation_error.norm(), voxel) << across.transpose();
   }
 }
+
+TEST(ShiftedOptimum, TheSameOnOneThreadOrTwo)
+{
+  // Two evaluators take the searches in turn and help each other's last one: every optimum,
+  // lead and count is the one evaluator's.
+  std::ifstream list(kSet + "list.txt");
+  std::string source_name, target_name;
+  ASSERT_TRUE(list >> source_name >> target_name);
+  Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
+  for (int i = 0; i < 12; ++i)
+    ASSERT_TRUE(list >> reference(i / 4, i % 4));
+  pcl_mi::core::PreparedProblem problem;
+  problem.setParameters(pcl_mi::Parameters());
+  problem.setTarget(bundledScan(target_name));
+  problem.setSource(bundledScan(source_name));
+  std::string error;
+  ASSERT_TRUE(problem.prepare(error)) << error;
+  Eigen::Matrix4d slid = reference;
+  slid.topRightCorner<3, 1>() += Eigen::Vector3d(1.3, 1.1, 0.0);
+  int one_count = 0, two_count = 0;
+  const pcl_mi::core::ShiftedOptima one =
+      pcl_mi::core::shiftedOptima(problem, slid, Eigen::Vector3d::UnitZ(), 1, one_count);
+  const pcl_mi::core::ShiftedOptima two =
+      pcl_mi::core::shiftedOptima(problem, slid, Eigen::Vector3d::UnitZ(), 2, two_count);
+  EXPECT_EQ(one_count, two_count);
+  EXPECT_EQ(one.lead, two.lead);
+  ASSERT_TRUE(one.higher && two.higher);
+  EXPECT_EQ(one.higher->pose, two.higher->pose);
+  EXPECT_EQ(one.higher->lead, two.higher->lead);
+  EXPECT_EQ(one.higher->converged, two.higher->converged);
+}

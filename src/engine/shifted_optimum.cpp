@@ -4,7 +4,7 @@
 #include "engine/shifted_optimum.h"
 
 #include "search/nelder_mead.h"
-#include "util/parallel.h"
+#include "search/two_evaluators.h"
 
 #include <algorithm>
 #include <cmath>
@@ -67,19 +67,27 @@ shiftedOptima(PreparedProblem& problem,
   options.max_iterations = kShiftedIterations;
   options.tolerance = Eigen::Vector3d::Constant(kShiftedToleranceVoxels * voxel);
   const Eigen::VectorXd steps = Eigen::Vector3d::Constant(voxel);
-  std::vector<NelderMeadResult> found(starts.size());
-  // Each evaluator takes every other start; the searches are independent, so the results do
-  // not depend on the threads.
-  parallelFor(2, num_threads, [&](int slot) {
-    JointHistogram histogram;
-    const auto cost = [&](const Eigen::VectorXd& t) {
-      Eigen::Matrix4d shifted = pose;
-      shifted.topRightCorner<3, 1>() = t;
-      return -problem.mutualInformation(shifted, histogram, 0, slot);
-    };
-    for (std::size_t i = static_cast<std::size_t>(slot); i < starts.size(); i += 2)
-      found[i] = minimizeNelderMead(cost, starts[i], steps, options);
-  });
+  std::vector<NelderMeadRun> runs;
+  for (const Eigen::Vector3d& start : starts)
+    runs.emplace_back(start, steps, options);
+  JointHistogram histograms[2]; // one per evaluator
+  const SlotCost cost = [&](int slot, const Eigen::VectorXd& t) {
+    Eigen::Matrix4d shifted = pose;
+    shifted.topRightCorner<3, 1>() = t;
+    return -problem.mutualInformation(shifted, histograms[slot], 0, slot);
+  };
+  // The searches are independent, so the results do not depend on the threads.
+  if (num_threads >= 2)
+    runOnTwoEvaluators(runs, cost);
+  else
+    for (NelderMeadRun& run : runs)
+      runToEnd(run, [&](const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values) {
+        for (std::size_t i = 0; i < xs.size(); ++i)
+          values[i] = cost(0, xs[i]);
+      });
+  std::vector<NelderMeadResult> found;
+  for (const NelderMeadRun& run : runs)
+    found.push_back(run.result());
 
   std::size_t best = 0;
   for (std::size_t i = 0; i < found.size(); ++i) {
