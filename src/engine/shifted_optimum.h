@@ -41,7 +41,8 @@ struct ShiftedOptima {
  * finest grid can, but its optima are too narrow for a simplex to walk from one to the next.
  * Where none of them comes close, the result is the one place nearby where the clouds
  * agree: the lead is evidence for the verdict (verify/verification.h).
- * \a evaluations counts the MI evaluations. */
+ * \a evaluations counts the MI evaluations. With \a num_threads of 2 or more the searches
+ * run on two evaluators (runOnTwoEvaluators()); the result does not depend on the threads. */
 ShiftedOptima
 shiftedOptima(PreparedProblem& problem,
               const Eigen::Matrix4d& pose,
