@@ -132,3 +132,29 @@ TEST(TwoEvaluators, AFailingEvaluationIsRethrownAndNothingWaitsForever)
                    std::runtime_error);
     }
 }
+
+TEST(TwoEvaluators, OnOneThreadEvaluatorZeroRunsThemInTurn)
+{
+  const std::vector<Start> starts = unevenStarts(4);
+  std::vector<NelderMeadRun> runs;
+  for (const Start& s : starts)
+    runs.emplace_back(s.x0, s.steps, optionsWithCap(s.cap));
+  int other_slot = 0;
+  const int requests = pcl_mi::core::runOnTwoEvaluators(
+      runs,
+      [&](int slot, const Eigen::VectorXd& x) {
+        other_slot += slot != 0;
+        return ruggedCost(x);
+      },
+      1);
+  EXPECT_EQ(other_slot, 0);
+  int alone_requests = 0;
+  for (std::size_t k = 0; k < starts.size(); ++k) {
+    const auto alone = minimizeNelderMead(ruggedCost, starts[k].x0, starts[k].steps,
+                                          optionsWithCap(starts[k].cap));
+    EXPECT_EQ(runs[k].result().x, alone.x) << k;
+    EXPECT_EQ(runs[k].result().evaluations, alone.evaluations) << k;
+    alone_requests += alone.requests;
+  }
+  EXPECT_EQ(requests, alone_requests);
+}

@@ -77,14 +77,7 @@ shiftedOptima(PreparedProblem& problem,
     return -problem.mutualInformation(shifted, histograms[slot], 0, slot);
   };
   // The searches are independent, so the results do not depend on the threads.
-  if (num_threads >= 2)
-    runOnTwoEvaluators(runs, cost);
-  else
-    for (NelderMeadRun& run : runs)
-      runToEnd(run, [&](const std::vector<Eigen::VectorXd>& xs, std::vector<double>& values) {
-        for (std::size_t i = 0; i < xs.size(); ++i)
-          values[i] = cost(0, xs[i]);
-      });
+  runOnTwoEvaluators(runs, cost, num_threads);
   std::vector<NelderMeadResult> found;
   for (const NelderMeadRun& run : runs)
     found.push_back(run.result());

@@ -80,18 +80,15 @@ public:
     std::vector<NelderMeadRun> runs;
     for (const Start& s : starts)
       runs.emplace_back(s.x0, s.steps, options(level, s.cap));
-    const BatchFunction batch = [&](const std::vector<Eigen::VectorXd>& xs,
-                                    std::vector<double>& values) {
-      costs_.costs(level, 0, xs, values);
-    };
     if (costs_.prefersBatches())
-      result_.batches += runTogether(runs, batch);
-    else if (o_.num_threads >= 2)
-      result_.batches += runOnTwoEvaluators(
-          runs, [&](int slot, const Eigen::VectorXd& x) { return costs_.cost(level, slot, x); });
+      result_.batches += runTogether(runs, [&](const std::vector<Eigen::VectorXd>& xs,
+                                               std::vector<double>& values) {
+        costs_.costs(level, 0, xs, values);
+      });
     else
-      for (NelderMeadRun& run : runs)
-        result_.batches += runToEnd(run, batch);
+      result_.batches += runOnTwoEvaluators(
+          runs, [&](int slot, const Eigen::VectorXd& x) { return costs_.cost(level, slot, x); },
+          o_.num_threads);
     std::vector<NelderMeadResult> results;
     for (const NelderMeadRun& run : runs)
       results.push_back(run.result());

@@ -170,8 +170,18 @@ private:
 } // namespace
 
 int
-runOnTwoEvaluators(std::vector<NelderMeadRun>& runs, const SlotCost& cost)
+runOnTwoEvaluators(std::vector<NelderMeadRun>& runs, const SlotCost& cost, int threads)
 {
+  if (threads < 2) {
+    int requests = 0;
+    for (NelderMeadRun& run : runs)
+      requests += runToEnd(run, [&](const std::vector<Eigen::VectorXd>& xs,
+                                    std::vector<double>& values) {
+        for (std::size_t i = 0; i < xs.size(); ++i)
+          values[i] = cost(0, xs[i]);
+      });
+    return requests;
+  }
   TwoEvaluators evaluators(runs, cost);
   std::atomic<int> slots{0};
   runOnThreads(1, [&] { evaluators.work(slots++); });

@@ -25,9 +25,10 @@ using SlotCost = std::function<double(int slot, const Eigen::VectorXd& x)>;
  * evaluator helps the other's run instead of waiting: it evaluates the second half of a
  * request of several points (a first simplex, a shrink), or the run's spare point beside a
  * reflection asked alone. Every run is told the values it would be told alone, so its
- * result is the same. Returns the requests answered, summed over the runs. */
+ * result is the same. With \a threads below 2, evaluator 0 runs them one after another.
+ * Returns the requests answered, summed over the runs. */
 int
-runOnTwoEvaluators(std::vector<NelderMeadRun>& runs, const SlotCost& cost);
+runOnTwoEvaluators(std::vector<NelderMeadRun>& runs, const SlotCost& cost, int threads = 2);
 
 } // namespace core
 } // namespace pcl_mi
