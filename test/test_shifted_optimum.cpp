@@ -27,24 +27,31 @@ bundledScan(const std::string& name)
   return test_data::pointList(cloud);
 }
 
-} // namespace
-
-TEST(ShiftedOptimum, NoneAtTheReferenceAndTheReferenceFromASlideAcross)
+/** The set's first row (source, target, then the reference source-to-target 3x4) into
+ * \a reference, prepared with the defaults into \a problem. */
+void
+prepareFirstPair(pcl_mi::core::PreparedProblem& problem, Eigen::Matrix4d& reference)
 {
-  // The set's first row: source, target, then the reference source-to-target 3x4.
   std::ifstream list(kSet + "list.txt");
   std::string source_name, target_name;
   ASSERT_TRUE(list >> source_name >> target_name);
-  Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
+  reference.setIdentity();
   for (int i = 0; i < 12; ++i)
     ASSERT_TRUE(list >> reference(i / 4, i % 4));
-
-  pcl_mi::core::PreparedProblem problem;
   problem.setParameters(pcl_mi::Parameters());
   problem.setTarget(bundledScan(target_name));
   problem.setSource(bundledScan(source_name));
   std::string error;
   ASSERT_TRUE(problem.prepare(error)) << error;
+}
+
+} // namespace
+
+TEST(ShiftedOptimum, NoneAtTheReferenceAndTheReferenceFromASlideAcross)
+{
+  pcl_mi::core::PreparedProblem problem;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(prepareFirstPair(problem, reference));
   ASSERT_TRUE(problem.narrowView());
   const double voxel = problem.levelResolution(0);
   const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
@@ -81,18 +88,9 @@ TEST(ShiftedOptimum, TheSameOnOneThreadOrTwo)
 {
   // Two evaluators take the searches in turn and help each other's last one: every optimum,
   // lead and count is the one evaluator's.
-  std::ifstream list(kSet + "list.txt");
-  std::string source_name, target_name;
-  ASSERT_TRUE(list >> source_name >> target_name);
-  Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
-  for (int i = 0; i < 12; ++i)
-    ASSERT_TRUE(list >> reference(i / 4, i % 4));
   pcl_mi::core::PreparedProblem problem;
-  problem.setParameters(pcl_mi::Parameters());
-  problem.setTarget(bundledScan(target_name));
-  problem.setSource(bundledScan(source_name));
-  std::string error;
-  ASSERT_TRUE(problem.prepare(error)) << error;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(prepareFirstPair(problem, reference));
   Eigen::Matrix4d slid = reference;
   slid.topRightCorner<3, 1>() += Eigen::Vector3d(1.3, 1.1, 0.0);
   int one_count = 0, two_count = 0;

@@ -62,6 +62,32 @@ unevenStarts(int count)
   return starts;
 }
 
+std::vector<NelderMeadRun>
+runsFrom(const std::vector<Start>& starts)
+{
+  std::vector<NelderMeadRun> runs;
+  for (const Start& s : starts)
+    runs.emplace_back(s.x0, s.steps, optionsWithCap(s.cap));
+  return runs;
+}
+
+/** Expects \a run finished where the run from \a start ends alone, one point at a time;
+ * returns that lone run's requests. */
+int
+expectEndsAsAlone(const NelderMeadRun& run, const Start& start)
+{
+  const auto alone = minimizeNelderMead(ruggedCost, start.x0, start.steps,
+                                        optionsWithCap(start.cap));
+  const auto r = run.result();
+  EXPECT_TRUE(run.finished());
+  EXPECT_EQ(r.x, alone.x);
+  EXPECT_EQ(r.value, alone.value);
+  EXPECT_EQ(r.iterations, alone.iterations);
+  EXPECT_EQ(r.evaluations, alone.evaluations);
+  EXPECT_EQ(r.converged, alone.converged);
+  return alone.requests;
+}
+
 } // namespace
 
 TEST(TwoEvaluators, EveryRunEndsAsAloneAndTheIdleEvaluatorHelps)
@@ -73,9 +99,7 @@ TEST(TwoEvaluators, EveryRunEndsAsAloneAndTheIdleEvaluatorHelps)
     // tries, at least one must see it help. Every try must end every run as alone.
     bool helped = false;
     for (int attempt = 0; attempt < 20 && !helped; ++attempt) {
-      std::vector<NelderMeadRun> runs;
-      for (const Start& s : starts)
-        runs.emplace_back(s.x0, s.steps, optionsWithCap(s.cap));
+      std::vector<NelderMeadRun> runs = runsFrom(starts);
       std::atomic<int> calls[2] = {{0}, {0}};
       std::atomic<int> busy[2] = {{0}, {0}}; // one slot is never called concurrently
       const int requests = pcl_mi::core::runOnTwoEvaluators(
@@ -89,17 +113,8 @@ TEST(TwoEvaluators, EveryRunEndsAsAloneAndTheIdleEvaluatorHelps)
       int alone_requests = 0, evaluations = 0;
       for (std::size_t k = 0; k < starts.size(); ++k) {
         SCOPED_TRACE(k);
-        const auto alone = minimizeNelderMead(ruggedCost, starts[k].x0, starts[k].steps,
-                                              optionsWithCap(starts[k].cap));
-        const auto r = runs[k].result();
-        EXPECT_TRUE(runs[k].finished());
-        EXPECT_EQ(r.x, alone.x);
-        EXPECT_EQ(r.value, alone.value);
-        EXPECT_EQ(r.iterations, alone.iterations);
-        EXPECT_EQ(r.evaluations, alone.evaluations);
-        EXPECT_EQ(r.converged, alone.converged);
-        alone_requests += alone.requests;
-        evaluations += r.evaluations;
+        alone_requests += expectEndsAsAlone(runs[k], starts[k]);
+        evaluations += runs[k].result().evaluations;
       }
       EXPECT_GE(calls[0] + calls[1], evaluations);
       EXPECT_LE(requests, alone_requests);
@@ -118,10 +133,7 @@ TEST(TwoEvaluators, AFailingEvaluationIsRethrownAndNothingWaitsForever)
   for (const int failing_call : {3, 40})
     for (const int count : {1, 4}) {
       SCOPED_TRACE(failing_call * 10 + count);
-      const std::vector<Start> starts = unevenStarts(count);
-      std::vector<NelderMeadRun> runs;
-      for (const Start& s : starts)
-        runs.emplace_back(s.x0, s.steps, optionsWithCap(s.cap));
+      std::vector<NelderMeadRun> runs = runsFrom(unevenStarts(count));
       std::atomic<int> calls{0};
       EXPECT_THROW(pcl_mi::core::runOnTwoEvaluators(runs,
                                                     [&](int, const Eigen::VectorXd& x) {
@@ -136,9 +148,7 @@ TEST(TwoEvaluators, AFailingEvaluationIsRethrownAndNothingWaitsForever)
 TEST(TwoEvaluators, OnOneThreadEvaluatorZeroRunsThemInTurn)
 {
   const std::vector<Start> starts = unevenStarts(4);
-  std::vector<NelderMeadRun> runs;
-  for (const Start& s : starts)
-    runs.emplace_back(s.x0, s.steps, optionsWithCap(s.cap));
+  std::vector<NelderMeadRun> runs = runsFrom(starts);
   int other_slot = 0;
   const int requests = pcl_mi::core::runOnTwoEvaluators(
       runs,
@@ -150,11 +160,8 @@ TEST(TwoEvaluators, OnOneThreadEvaluatorZeroRunsThemInTurn)
   EXPECT_EQ(other_slot, 0);
   int alone_requests = 0;
   for (std::size_t k = 0; k < starts.size(); ++k) {
-    const auto alone = minimizeNelderMead(ruggedCost, starts[k].x0, starts[k].steps,
-                                          optionsWithCap(starts[k].cap));
-    EXPECT_EQ(runs[k].result().x, alone.x) << k;
-    EXPECT_EQ(runs[k].result().evaluations, alone.evaluations) << k;
-    alone_requests += alone.requests;
+    SCOPED_TRACE(k);
+    alone_requests += expectEndsAsAlone(runs[k], starts[k]);
   }
   EXPECT_EQ(requests, alone_requests);
 }

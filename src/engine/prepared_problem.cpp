@@ -169,19 +169,19 @@ PreparedProblem::prepare(std::string& error)
   const double gap = kOutlierGapVoxels * resolution;
   const int alone = new_target != new_source ? parameters_.num_threads : 1;
   std::string target_error, source_error;
+  const auto localCloud = [&](const PointView& input, const char* which, LocalCloud& cloud,
+                              std::string& why) {
+    why = resolutionError(input, resolution, which);
+    if (why.empty())
+      cloud = makeLocalCloud(input, gap, alone);
+  };
   std::vector<std::function<void()>> local_tasks;
   if (new_target)
-    local_tasks.emplace_back([&] {
-      target_error = resolutionError(target_input_, resolution, "target");
-      if (target_error.empty())
-        target_ = makeLocalCloud(target_input_, gap, alone);
-    });
+    local_tasks.emplace_back(
+        [&] { localCloud(target_input_, "target", target_, target_error); });
   if (new_source)
-    local_tasks.emplace_back([&] {
-      source_error = resolutionError(source_input_, resolution, "source");
-      if (source_error.empty())
-        source_ = makeLocalCloud(source_input_, gap, alone);
-    });
+    local_tasks.emplace_back(
+        [&] { localCloud(source_input_, "source", source_, source_error); });
   parallelFor(static_cast<int>(local_tasks.size()), parameters_.num_threads,
               [&](int task) { local_tasks[static_cast<std::size_t>(task)](); });
   error = target_error.empty() ? source_error : target_error;
