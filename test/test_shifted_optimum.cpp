@@ -2,7 +2,8 @@
  * The look for a higher optimum a few voxels across, on a real Livox pair carried past a
  * building: none at the reference pose, whose optimum leads every other nearby, and from the
  * reference slid one to two metres sideways, the reference's own optimum, which leads the
- * slid pose's.
+ * slid pose's. And on a KITTI pair cut to a forward view of 40 degrees, down a road: an
+ * optimum a whole motion along it, which counts against the lead without being taken.
  */
 #include "engine/prepared_problem.h"
 #include "engine/shifted_optimum.h"
@@ -12,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <string>
 
@@ -43,6 +45,18 @@ prepareFirstPair(pcl_mi::core::PreparedProblem& problem, Eigen::Matrix4d& refere
   problem.setSource(bundledScan(source_name));
   std::string error;
   ASSERT_TRUE(problem.prepare(error)) << error;
+}
+
+/** Frame \a frame of the bundled KITTI sequence 02, the points within 20 degrees of straight
+ * ahead: a forward-looking sensor's 40-degree view. */
+pcl_mi::PointList
+forwardView(int frame)
+{
+  pcl_mi::PointList kept;
+  for (const Eigen::Vector3f& p : test_data::pointList(*test_data::loadScan("02", frame)))
+    if (std::abs(std::atan2(p.y(), p.x())) <= 20.0 * M_PI / 180.0)
+      kept.push_back(p);
+  return kept;
 }
 
 } // namespace
@@ -104,4 +118,27 @@ TEST(ShiftedOptimum, TheSameOnOneThreadOrTwo)
   EXPECT_EQ(one.higher->pose, two.higher->pose);
   EXPECT_EQ(one.higher->lead, two.higher->lead);
   EXPECT_EQ(one.higher->converged, two.higher->converged);
+}
+
+TEST(ShiftedOptimum, ANarrowViewDownARoadCountsAnOptimumAlongItWithoutTakingIt)
+{
+  // Scan 6 onto scan 0 of sequence 02, 9.1 m down a road lined with trees. About ten metres
+  // back along the axis of view, where the two sensors nearly stand at one place and their
+  // rings fall on one another, the MI on the finest grid is higher than at the reference's
+  // own optimum: on such a road the MI cannot tell where along it the pose is, and the lead
+  // says so. The starts in the eight directions (up to six voxels) do not reach that far.
+  pcl_mi::core::PreparedProblem problem;
+  problem.setParameters(pcl_mi::Parameters());
+  problem.setTarget(forwardView(0));
+  problem.setSource(forwardView(6));
+  std::string error;
+  ASSERT_TRUE(problem.prepare(error)) << error;
+  ASSERT_TRUE(problem.narrowView());
+  const Eigen::Matrix4d reference = test_data::referenceTransform("02", 0, 6);
+  int evaluations = 0;
+  const pcl_mi::core::ShiftedOptima optima = pcl_mi::core::shiftedOptima(
+      problem, reference, Eigen::Vector3d::UnitZ(), 2, evaluations);
+  EXPECT_LT(optima.lead, 0.0);
+  // Not taken: from far-off guesses, taking such optima turned right results wrong.
+  EXPECT_FALSE(optima.higher);
 }
