@@ -19,7 +19,8 @@ namespace {
 constexpr double kShiftedStartVoxels = 2.0;
 
 /** The starts along the axis of view lie this many spacings away, either way: beyond the
- * ring starts' reach, about as far as a search's first simplex steps. */
+ * reach of the starts in eight directions (three spacings), within a first simplex's
+ * translation steps (16 voxels). */
 constexpr int kAxisStartFirst = 4;
 constexpr int kAxisStartLast = 6;
 
@@ -97,8 +98,9 @@ shiftedOptima(PreparedProblem& problem,
   for (const NelderMeadRun& run : runs)
     found.push_back(run.result());
 
-  // Only the ring starts' optima may be taken; those along the axis count against the lead
-  // alone: taken, they turned right results from far-off guesses wrong (docs/benchmarks.md).
+  // Only the eight directions' optima may be taken; those along the axis count against the
+  // lead alone: taken, they turned right results from far-off guesses wrong
+  // (docs/benchmarks.md, "Shifted optima along the axis of view").
   std::size_t best = 0;
   for (std::size_t i = 0; i < found.size(); ++i) {
     evaluations += found[i].evaluations;
