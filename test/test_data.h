@@ -16,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 namespace test_data {
@@ -36,6 +37,19 @@ loadScan(const std::string& sequence, int frame)
   auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   pcl::copyPointCloud(xyzi, *cloud);
   return cloud;
+}
+
+/** The points of \a cloud within \a half_angle_deg of azimuth of straight ahead (+x), in
+ * their order: what a forward-looking sensor at its origin, with twice that horizontal field
+ * of view, would see. */
+inline pcl::PointCloud<pcl::PointXYZ>::Ptr
+forwardView(const pcl::PointCloud<pcl::PointXYZ>& cloud, double half_angle_deg)
+{
+  auto view = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  for (const auto& p : cloud)
+    if (std::abs(std::atan2(p.y, p.x)) <= half_angle_deg * M_PI / 180.0)
+      view->push_back(p);
+  return view;
 }
 
 /** The x, y, z of every point of \a cloud, as the engine takes them. */

@@ -293,12 +293,9 @@ namespace {
 Cloud::Ptr
 cutToView(const Cloud::Ptr& cloud, float offset = 0.0f)
 {
-  Cloud::Ptr cut(new Cloud);
-  for (auto point : *cloud)
-    if (std::abs(std::atan2(point.y, point.x)) <= 35.0 * M_PI / 180.0) {
-      point.x += offset;
-      cut->push_back(point);
-    }
+  Cloud::Ptr cut = test_data::forwardView(*cloud, 35.0);
+  for (auto& point : *cut)
+    point.x += offset;
   return cut;
 }
 

@@ -13,7 +13,6 @@
 
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <fstream>
 #include <string>
 
@@ -47,16 +46,12 @@ prepareFirstPair(pcl_mi::core::PreparedProblem& problem, Eigen::Matrix4d& refere
   ASSERT_TRUE(problem.prepare(error)) << error;
 }
 
-/** Frame \a frame of the bundled KITTI sequence 02, the points within 20 degrees of straight
- * ahead: a forward-looking sensor's 40-degree view. */
+/** Frame \a frame of the bundled KITTI sequence 02 as a forward-looking sensor with a
+ * 40-degree view would see it. */
 pcl_mi::PointList
 forwardView(int frame)
 {
-  pcl_mi::PointList kept;
-  for (const Eigen::Vector3f& p : test_data::pointList(*test_data::loadScan("02", frame)))
-    if (std::abs(std::atan2(p.y(), p.x())) <= 20.0 * M_PI / 180.0)
-      kept.push_back(p);
-  return kept;
+  return test_data::pointList(*test_data::forwardView(*test_data::loadScan("02", frame), 20.0));
 }
 
 } // namespace

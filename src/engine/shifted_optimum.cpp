@@ -68,16 +68,20 @@ shiftedOptima(PreparedProblem& problem,
       const Eigen::Vector3d direction = std::cos(angle) * u + std::sin(angle) * v;
       starts.push_back(at + ring * kShiftedStartVoxels * voxel * direction);
     }
+  // The pose and the eight directions' starts: the searches whose optima may be taken.
+  const std::size_t takeable = starts.size();
   // The axis of view, from the sensor (the source frame's origin) to the source's centroid,
   // square to up: along a road or a corridor ahead a narrow view sees nearly the same
   // surfaces a whole motion further on.
   const Eigen::Vector3d unit_up = up.normalized();
   Eigen::Vector3d axis = pose.topLeftCorner<3, 3>() * problem.source().centroid;
   axis -= axis.dot(unit_up) * unit_up;
-  if (axis.norm() > 0.0)
+  if (axis.norm() > 0.0) {
+    axis.normalize();
     for (int ring = kAxisStartFirst; ring <= kAxisStartLast; ++ring)
       for (const double sign : {1.0, -1.0})
-        starts.push_back(at + sign * ring * kShiftedStartVoxels * voxel * axis.normalized());
+        starts.push_back(at + sign * ring * kShiftedStartVoxels * voxel * axis);
+  }
 
   NelderMeadOptions options;
   options.max_iterations = kShiftedIterations;
@@ -104,8 +108,7 @@ shiftedOptima(PreparedProblem& problem,
   std::size_t best = 0;
   for (std::size_t i = 0; i < found.size(); ++i) {
     evaluations += found[i].evaluations;
-    if (i > 0 && i <= static_cast<std::size_t>(kShiftedStarts) &&
-        (found[i].x - found[0].x).norm() > voxel &&
+    if (i > 0 && i < takeable && (found[i].x - found[0].x).norm() > voxel &&
         (best == 0 || found[i].value < found[best].value))
       best = i;
   }
