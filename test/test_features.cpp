@@ -123,6 +123,10 @@ expectTheSameLocalCloud(const LocalCloud& a, const LocalCloud& b)
   EXPECT_EQ(a.non_finite, b.non_finite);
   EXPECT_EQ(a.no_return, b.no_return);
   EXPECT_EQ(a.outliers, b.outliers);
+  EXPECT_EQ(a.rms_radius, b.rms_radius);
+  EXPECT_EQ(a.azimuth_coverage_deg, b.azimuth_coverage_deg);
+  EXPECT_EQ(a.box.min, b.box.min);
+  EXPECT_EQ(a.box.max, b.box.max);
 }
 
 } // namespace
@@ -150,6 +154,32 @@ TEST(LocalCloud, TheSameReadOnTwoThreads)
   expectTheSameLocalCloud(makeLocalCloud(points, 64.0, 1), two);
   EXPECT_GT(two.non_finite, 500u);
   EXPECT_GT(two.no_return, 500u);
+}
+
+TEST(LocalCloud, BuiltIntoAUsedCloudIsTheFreshOneToTheBitOnItsStorage)
+{
+  // Scan 9 with NaNs, no-returns and a far outlier, built into the local cloud of scan 0
+  // (a registration object given a new pair), then a handful of points into that.
+  PointList next = test_data::pointList(*test_data::loadScan("00", 9));
+  for (std::size_t i = 0; i < next.size(); i += 101)
+    next[i] = i % 2 ? Eigen::Vector3f::Zero()
+                    : Eigen::Vector3f(std::numeric_limits<float>::quiet_NaN(), 1.0f, 2.0f);
+  next.emplace_back(1e5f, 0.0f, 0.0f);
+  for (const int threads : {1, 2}) {
+    LocalCloud used = makeLocalCloud(test_data::pointList(*test_data::loadScan("00", 0)), 64.0);
+    used.points.reserve(next.size());
+    const Eigen::Vector3f* storage = used.points.data();
+    makeLocalCloud(next, 64.0, threads, used);
+    expectTheSameLocalCloud(makeLocalCloud(next, 64.0, threads), used);
+    EXPECT_EQ(used.points.data(), storage) << "the used cloud's storage was not reused";
+    EXPECT_EQ(used.outliers, 1u);
+
+    // Storage more than twice what a cloud needs goes, rather than being held on to.
+    const PointList few(next.begin(), next.begin() + 50);
+    makeLocalCloud(few, 64.0, threads, used);
+    expectTheSameLocalCloud(makeLocalCloud(few, 64.0, threads), used);
+    EXPECT_LE(used.points.capacity(), 2 * few.size());
+  }
 }
 
 TEST(LocalCloud, FirstPointJustBelowTheMedianKeepsItsGroupsBounds)

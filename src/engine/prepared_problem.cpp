@@ -173,7 +173,7 @@ PreparedProblem::prepare(std::string& error)
                               std::string& why) {
     why = resolutionError(input, resolution, which);
     if (why.empty())
-      cloud = makeLocalCloud(input, gap, alone);
+      makeLocalCloud(input, gap, alone, cloud);
   };
   std::vector<std::function<void()>> local_tasks;
   if (new_target)

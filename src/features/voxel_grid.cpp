@@ -303,9 +303,21 @@ sectorOf(double x, double y, int sectors)
 LocalCloud
 makeLocalCloud(const PointView& points, double outlier_gap, int threads)
 {
+  LocalCloud cloud;
+  makeLocalCloud(points, outlier_gap, threads, cloud);
+  return cloud;
+}
+
+void
+makeLocalCloud(const PointView& points, double outlier_gap, int threads, LocalCloud& cloud)
+{
   // Built in place in the output, without an intermediate copy: clouds of tens of millions
   // of points are worth 12 bytes a point.
-  LocalCloud cloud;
+  PointList storage = std::move(cloud.points);
+  if (storage.capacity() > 2 * points.size())
+    PointList().swap(storage);
+  cloud = LocalCloud();
+  cloud.points = std::move(storage);
   PointList& kept = cloud.points;
   // Many drivers write a beam without a return as (0, 0, 0) rather than NaN. Piled into the
   // voxel at the sensor, they make a feature that agrees wherever the two sensors' piles
@@ -343,7 +355,7 @@ makeLocalCloud(const PointView& points, double outlier_gap, int threads)
   cloud.non_finite = points.size() - finite;
   cloud.no_return = finite - kept_count;
   if (kept_count == 0)
-    return cloud;
+    return;
 
   Eigen::Vector3d low, high;
   bulkRanges(kept, outlier_gap, low, high);
@@ -376,7 +388,6 @@ makeLocalCloud(const PointView& points, double outlier_gap, int threads)
   cloud.box = boundingBox(kept);
   cloud.covariance << xx, xy, xz, xy, yy, yz, xz, yz, zz;
   cloud.covariance /= static_cast<double>(count);
-  return cloud;
 }
 
 double

@@ -68,6 +68,13 @@ azimuthCoverageDegrees(const PointList& points);
 LocalCloud
 makeLocalCloud(const PointView& points, double outlier_gap, int threads = 1);
 
+/** \brief makeLocalCloud() into \a cloud, whose point storage it reuses where that is at
+ * most twice the input's size: an object given new clouds for every pair then keeps writing
+ * to memory it has touched, instead of to fresh pages while the old cloud still holds its
+ * own. Everything else in \a cloud is replaced. */
+void
+makeLocalCloud(const PointView& points, double outlier_gap, int threads, LocalCloud& cloud);
+
 /** \brief Axis-aligned voxel grid: cell (ix, iy, iz) covers
  * origin + resolution * [ix, ix + 1) x [iy, iy + 1) x [iz, iz + 1). */
 struct GridGeometry {
