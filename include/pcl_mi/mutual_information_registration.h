@@ -544,8 +544,10 @@ public:
   }
 
   /** \brief Probability (0 to 1) that the last result is within 0.5 m and 2 degrees of the
-   * true pose, calibrated on real scans of several sensors (docs/method.md, "The verdict");
-   * 0 after a failure. hasConverged() requires at least 0.95. */
+   * true pose, from the evidence at the result, calibrated on real scans of several sensors
+   * (docs/method.md, "The verdict"); 0 after a failure. hasConverged() requires at least
+   * 0.95. A result the verdict refuses for another reason (a free direction, a capped
+   * search) keeps it: read it together with hasConverged(). */
   double
   getConfidence() const
   {
