@@ -153,17 +153,23 @@ BM_TargetDistributions(benchmark::State& state)
 BENCHMARK(BM_TargetDistributions)->Unit(benchmark::kMillisecond);
 
 /** prepare() from new clouds, as an alignment runs it: one core is given both clouds anew
- * each time and aligns them, and only its "prepare" stage is timed. An alignment leaves the
- * grids it touched zero again, so the next one takes their memory as it is; a problem
- * prepared and dropped without an alignment maps them afresh, and how much of that memory
- * the allocator keeps from one such problem to the next varies between processes. */
+ * each time (/0), or the source alone against a target it keeps, as a scan against a map
+ * (/1), and aligns them; only its "prepare" stage is timed. An alignment leaves the grids it
+ * touched zero again, so the next one takes their memory as it is; a problem prepared and
+ * dropped without an alignment maps them afresh, and how much of that memory the allocator
+ * keeps from one such problem to the next varies between processes. */
 void
 BM_Prepare(benchmark::State& state)
 {
   const Pair& p = pair();
+  const bool source_alone = state.range(0) == 1;
   pcl_mi::RegistrationCore core;
+  core.setTarget(p.target_points);
+  core.setSource(p.source_points);
+  core.align(Eigen::Matrix4d::Identity()); // prepares the target a source alone finds kept
   for (auto _ : state) {
-    core.setTarget(p.target_points);
+    if (!source_alone)
+      core.setTarget(p.target_points);
     core.setSource(p.source_points);
     const pcl_mi::AlignmentResult result = core.align(Eigen::Matrix4d::Identity());
     if (!result.error.empty())
@@ -175,7 +181,7 @@ BM_Prepare(benchmark::State& state)
     state.SetIterationTime(ms * 1e-3);
   }
 }
-BENCHMARK(BM_Prepare)->Unit(benchmark::kMillisecond)->UseManualTime();
+BENCHMARK(BM_Prepare)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 /** One MI evaluation (transform, voxelise, joint histogram, MI) on pyramid level N. */
 void
