@@ -15,7 +15,7 @@ fuzz_seconds="${FUZZ_SECONDS:-60}"
 # A fixed seed makes the CI run reproducible (same inputs in the same order); FUZZ_SEED=0
 # lets libFuzzer pick a random one, as longer local runs should.
 fuzz_seed="${FUZZ_SEED:-1}"
-soak_alignments="${SOAK_ALIGNMENTS:-500}"
+soak_alignments="${SOAK_ALIGNMENTS:-2000}"
 release_build="${PCL_MI_BUILD_DIR:-$root/build}"
 bash "$root/scripts/setup_debian.sh"
 
