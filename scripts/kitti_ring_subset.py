@@ -9,6 +9,7 @@ scan, K = 4 a 16-ring one (about 1.7 deg between rings, close to a VLP-16's 2 de
 usage: kitti_ring_subset.py KITTI_ROOT K OUT_DIR [--sequences 00,01,02,05,08]
                             [--distance 1,10] [--max-yaw 20] [--poses semantic|gt]
                             [--scale S] [--fov DEG] [--voxel M]
+                            [--noise SIGMA] [--seed N]
 
 --scale S multiplies every coordinate and the reference translations by S (e.g. 1000 for
 millimetres, 0.1 for a scene the size of a room), to check that an alignment at resolution
@@ -18,6 +19,8 @@ forward-looking sensor with that horizontal field of view would see them.
 --voxel M keeps the first point of each cube of M metres (before scaling), as a pipeline that
 thins its scans with a voxel filter hands them over: about as many points near the sensor as
 far from it.
+--noise SIGMA adds Gaussian noise of SIGMA metres (before scaling) to each coordinate of every
+point, as a noisier sensor would measure it; --seed N fixes the draws (default 1).
 
 The list holds every pair i < j of the stored frames whose motion is within --distance and
 --max-yaw, with the reference source-to-target transform T_i_j = inv(Tv_i) * Tv_j,
@@ -58,6 +61,8 @@ def main():
     parser.add_argument("--scale", type=float, default=1.0)
     parser.add_argument("--fov", type=float, default=360.0)
     parser.add_argument("--voxel", type=float, default=0.0)
+    parser.add_argument("--noise", type=float, default=0.0)
+    parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
     if args.every < 1:
         sys.exit("kitti_ring_subset: K must be >= 1")
@@ -65,6 +70,9 @@ def main():
         sys.exit("kitti_ring_subset: --scale must be positive and finite")
     if not 0 < args.fov <= 360:
         sys.exit("kitti_ring_subset: --fov must be in (0, 360]")
+    if not (args.noise >= 0 and math.isfinite(args.noise)):
+        sys.exit("kitti_ring_subset: --noise must be 0 or more and finite")
+    random = np.random.default_rng(args.seed)
     dmin, dmax = (float(v) for v in args.distance.split(","))
     os.makedirs(args.out, exist_ok=True)
 
@@ -82,6 +90,9 @@ def main():
                 cells = np.floor(subset[:, :3] / args.voxel).astype(np.int64)
                 _, first = np.unique(cells, axis=0, return_index=True)
                 subset = subset[np.sort(first)]
+            if args.noise > 0:
+                subset = subset.copy()
+                subset[:, :3] += random.normal(0.0, args.noise, (len(subset), 3)).astype(np.float32)
             if args.scale != 1.0:
                 subset[:, :3] *= np.float32(args.scale)
             subset.tofile(os.path.join(args.out, f"{seq}_{k:06d}.bin"))

@@ -3,7 +3,8 @@
 # sensor), then pcl_mi_compare -list on what it wrote. Asserts that about half the points
 # are kept, that the list holds the two bundled pairs with their reference poses, and that
 # MI-VARZ aligns all four alignments within 0.15 m / 0.5 deg, that --scale scales the
-# points and the reference translations only, and that --fov cuts to the field of view.
+# points and the reference translations only, that --fov cuts to the field of view, and
+# that --noise adds noise of the deviation asked, reproducibly.
 # Usage: run_ring_subset_test.sh SCRIPT COMPARE_BINARY DATA_DIR WORK_DIR
 set -euo pipefail
 script=$1 compare=$2 data=$3 work=$4
@@ -44,4 +45,19 @@ cut = np.fromfile(f"{sys.argv[2]}/00_000009.bin", dtype=np.float32).reshape(-1, 
 inside = np.abs(np.degrees(np.arctan2(full[:, 1], full[:, 0]))) <= 35
 assert np.array_equal(cut, full[inside]) and 0.1 < len(cut) / len(full) < 0.3
 print(f"--fov 70: {len(cut)} of {len(full)} points kept, all within +-35 deg")
+PY
+# --noise adds zero-mean Gaussian noise of that deviation to the coordinates only, the same
+# for the same --seed.
+"$script" "$data/kitti" 1 "$work/noise" --sequences 00 --noise 0.1 --seed 3 > /dev/null
+"$script" "$data/kitti" 1 "$work/noise_again" --sequences 00 --noise 0.1 --seed 3 > /dev/null
+cmp "$work/noise/00_000009.bin" "$work/noise_again/00_000009.bin"
+/usr/bin/python3 - "$work/all" "$work/noise" <<'PY'
+import sys
+import numpy as np
+clean = np.fromfile(f"{sys.argv[1]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+noisy = np.fromfile(f"{sys.argv[2]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+d = (noisy[:, :3] - clean[:, :3]).astype(np.float64)
+assert len(noisy) == len(clean) and np.array_equal(noisy[:, 3], clean[:, 3])
+assert abs(d.std() - 0.1) < 0.002 and abs(d.mean()) < 0.002, (d.std(), d.mean())
+print(f"--noise 0.1: deviation {d.std():.4f} m, mean {d.mean():+.5f} m, intensities unchanged")
 PY
