@@ -91,7 +91,6 @@ def main():
                 _, first = np.unique(cells, axis=0, return_index=True)
                 subset = subset[np.sort(first)]
             if args.noise > 0:
-                subset = subset.copy()
                 subset[:, :3] += random.normal(0.0, args.noise, (len(subset), 3)).astype(np.float32)
             if args.scale != 1.0:
                 subset[:, :3] *= np.float32(args.scale)
