@@ -4,9 +4,10 @@ halves (alternate points), one half is moved by a known random transform, the ha
 aligned with the defaults from the identity guess, and the normalised squared error
 e^T inv(Sigma) e of every converged result is printed (its mean is 6 for a consistent
 6-DoF covariance). e is the left increment [t, rotation vector] that carries the result onto
-the known transform, the order and frame of getCovariance().
+the known transform, the order and frame of getCovariance(). With -noise SIGMA, Gaussian
+noise of SIGMA (m) is added to every coordinate before the split.
 
-Usage: covariance_nees.py BUILD_DIR SCAN.bin... [-pairs_per_scan K] [-seed S]
+Usage: covariance_nees.py BUILD_DIR SCAN.bin... [-pairs_per_scan K] [-seed S] [-noise SIGMA]
 """
 import sys
 
@@ -28,13 +29,15 @@ def rotation(axis, angle):
 
 
 def main(argv):
-    args, scans, k, seed = argv[2:], [], 2, 1
+    args, scans, k, seed, noise = argv[2:], [], 2, 1, 0.0
     i = 0
     while i < len(args):
         if args[i] == "-pairs_per_scan":
             k, i = int(args[i + 1]), i + 2
         elif args[i] == "-seed":
             seed, i = int(args[i + 1]), i + 2
+        elif args[i] == "-noise":
+            noise, i = float(args[i + 1]), i + 2
         else:
             scans.append(args[i])
             i += 1
@@ -42,10 +45,12 @@ def main(argv):
     import pcl_mi
 
     rng = np.random.default_rng(seed)
-    nees, rows = [], 0
+    nees, normalised, errors, rows = [], [], [], 0
     for path in scans:
         points = np.fromfile(path, dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
         points = points[np.isfinite(points).all(1) & (np.abs(points).sum(1) > 0)]
+        if noise > 0:
+            points = points + rng.normal(scale=noise, size=points.shape)
         target, half = points[0::2], points[1::2]
         for _ in range(k):
             # A known motion: 0.2-1 m horizontally, up to 5 deg about a random axis.
@@ -66,11 +71,19 @@ def main(argv):
             e = np.concatenate([d[:3, 3], rotation_vector(d[:3, :3])])
             sigma = np.asarray(result.covariance)
             nees.append(float(e @ np.linalg.solve(sigma, e)))
+            normalised.append(e / np.sqrt(np.diag(sigma)))
+            errors.append(e)
     nees = np.array(nees)
     print("pairs %d, converged %d" % (rows, len(nees)))
     if len(nees):
         print("NEES mean %.2f, median %.2f (6 and 5.35 when consistent), 90 %% %.2f" %
               (nees.mean(), np.median(nees), np.percentile(nees, 90)))
+        # Which parameters the covariance is too small (> 1) or too large (< 1) for.
+        rms = np.sqrt((np.array(normalised) ** 2).mean(0))
+        print("RMS of error / standard deviation, [tx ty tz roll pitch yaw]: " +
+              " ".join("%.2f" % x for x in rms))
+        rms = np.sqrt((np.array(errors) ** 2).mean(0)) * np.array([100, 100, 100] + [np.degrees(1)] * 3)
+        print("RMS error [cm cm cm deg deg deg]: " + " ".join("%.3f" % x for x in rms))
     return 0
 
 
