@@ -148,16 +148,14 @@ private:
     histogram.overlap_voxels = static_cast<std::uint64_t>(hi.x() - lo.x() + 1) *
                                (hi.y() - lo.y() + 1) * (hi.z() - lo.z() + 1);
 
-    // Histogram: source-occupied voxels, then target-only voxels, then empty in both.
-    std::uint64_t counted = 0;
-    auto bump = [&](int x, int y) {
-      ++histogram.counts[static_cast<std::size_t>(x) * num_bins + y];
-      ++counted;
+    // Histogram: every occupied target voxel in the overlap as target-only (bin, 0), then
+    // the source-occupied voxels, each taking its target voxel (if any) back out of
+    // target-only; what is left is empty in both. The target's voxels are read in their
+    // order, without a look at the source's moments, which lie anywhere in a large grid.
+    const auto index = [num_bins](int x, int y) {
+      return static_cast<std::size_t>(x) * num_bins + y;
     };
-    for (const std::uint32_t cell : touched_)
-      if (cell != spare_cell)
-        bump(target_->bins[cell],
-             core::voxelBin(target_->feature, target_->binning, moments_[cell]));
+    std::uint64_t counted = 0;
     // Only the rows of cells that cross the overlap: a map much larger than the scan holds
     // most of its voxels outside it.
     const std::vector<core::OccupiedVoxel>& occupied = target_->occupied;
@@ -167,10 +165,23 @@ private:
         const std::size_t row = static_cast<std::size_t>(iz) * g.dims.y() + iy;
         for (std::uint32_t k = row_starts[row]; k < row_starts[row + 1]; ++k) {
           const core::OccupiedVoxel& v = occupied[k];
-          if (v.ix >= lo.x() && v.ix <= hi.x() && moments_[v.cell].count == 0)
-            bump(v.bin, 0);
+          if (v.ix >= lo.x() && v.ix <= hi.x()) {
+            ++histogram.counts[index(v.bin, 0)];
+            ++counted;
+          }
         }
       }
+    for (const std::uint32_t cell : touched_) {
+      if (cell == spare_cell)
+        continue;
+      const int target_bin = target_->bins[cell];
+      const int source_bin = core::voxelBin(target_->feature, target_->binning, moments_[cell]);
+      ++histogram.counts[index(target_bin, source_bin)];
+      if (target_bin != 0)
+        --histogram.counts[index(target_bin, 0)];
+      else
+        ++counted;
+    }
     histogram.counts[0] += static_cast<std::uint32_t>(histogram.overlap_voxels - counted);
 
     clearTouched();
