@@ -82,7 +82,8 @@ def main(argv):
         rms = np.sqrt((np.array(normalised) ** 2).mean(0))
         print("RMS of error / standard deviation, [tx ty tz roll pitch yaw]: " +
               " ".join("%.2f" % x for x in rms))
-        rms = np.sqrt((np.array(errors) ** 2).mean(0)) * np.array([100, 100, 100] + [np.degrees(1)] * 3)
+        to_cm_deg = np.array([100.0] * 3 + [np.degrees(1.0)] * 3)
+        rms = np.sqrt((np.array(errors) ** 2).mean(0)) * to_cm_deg
         print("RMS error [cm cm cm deg deg deg]: " + " ".join("%.3f" % x for x in rms))
     return 0
 
