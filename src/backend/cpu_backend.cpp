@@ -38,7 +38,7 @@ public:
     // One spare cell past the grid collects the samples outside it.
     moments_ = core::ZeroedArray<core::VoxelMoments>(target_->geometry.cellCount() + 1);
     moments_.returnsZeroed(); // clearTouched() ends every compute()
-    touched_.clear();
+    touched_count_ = 0;
   }
 
   void
@@ -101,8 +101,10 @@ private:
     const std::vector<core::SourceSample>& samples = source_->samples;
     Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
     Eigen::Vector3f max = -min;
-    // Room for every sample to open a new cell, so the append below needs no branch.
-    touched_.resize(samples.size());
+    // Room for every sample to open a new cell, so the append below needs no branch; kept
+    // between calls, since growing it would clear it first.
+    if (touched_.size() < samples.size())
+      touched_.resize(samples.size());
     std::size_t touched = 0;
     // Per block, the arithmetic first (vectorised), then the moments, which each depend on
     // the voxel the last sample touched.
@@ -126,7 +128,7 @@ private:
       }
     }
 
-    touched_.resize(touched);
+    touched_count_ = touched;
 
     // Overlap: intersection of the two bounding boxes, in whole voxels.
     Eigen::Vector3i lo, hi;
@@ -171,7 +173,8 @@ private:
           }
         }
       }
-    for (const std::uint32_t cell : touched_) {
+    for (std::size_t i = 0; i < touched_count_; ++i) {
+      const std::uint32_t cell = touched_[i];
       if (cell == spare_cell)
         continue;
       const int target_bin = target_->bins[cell];
@@ -190,9 +193,9 @@ private:
   void
   clearTouched()
   {
-    for (const std::uint32_t cell : touched_)
-      moments_[cell] = core::VoxelMoments{};
-    touched_.clear();
+    for (std::size_t i = 0; i < touched_count_; ++i)
+      moments_[touched_[i]] = core::VoxelMoments{};
+    touched_count_ = 0;
   }
 
   std::shared_ptr<const core::TargetGrid> target_;
@@ -200,7 +203,8 @@ private:
   std::unique_ptr<SampleColumns> columns_;  // source_ in columns
   MovedBlock block_;                        // where the current block's samples land
   core::ZeroedArray<core::VoxelMoments> moments_; // per target cell, zero between calls
-  std::vector<std::uint32_t> touched_;      // cells with source points this call
+  std::vector<std::uint32_t> touched_;      // cells with source points this call: the first
+  std::size_t touched_count_ = 0;           // touched_count_ entries
   int calls_ = 0;
   double total_ms_ = 0.0;
 };
