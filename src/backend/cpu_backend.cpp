@@ -203,8 +203,10 @@ private:
   std::unique_ptr<SampleColumns> columns_;  // source_ in columns
   MovedBlock block_;                        // where the current block's samples land
   core::ZeroedArray<core::VoxelMoments> moments_; // per target cell, zero between calls
-  std::vector<std::uint32_t> touched_;      // cells with source points this call: the first
-  std::size_t touched_count_ = 0;           // touched_count_ entries
+  /** Cells with source points this call: the first touched_count_ entries (the rest are
+   * room left from earlier calls). */
+  std::vector<std::uint32_t> touched_;
+  std::size_t touched_count_ = 0;
   int calls_ = 0;
   double total_ms_ = 0.0;
 };
