@@ -40,6 +40,6 @@ if echo "$out" | grep -q '^gicp +backward'; then echo "gicp has no backward rows
 merged=$(mktemp)
 trap 'rm -f "$merged"' EXIT
 "$1" -merge "$2" "$3" -csv "$merged" > /dev/null
-test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 57
+test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 58
 # Every row lacks a value somewhere: the old rows their poses, all of them MI's confidence.
 test "$(grep -c ',nan,' "$merged")" -eq 10

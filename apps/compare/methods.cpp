@@ -189,7 +189,8 @@ runMethod(const std::string& chain,
     o.confidence = v.confidence;
     for (int i = 0; i < 6; ++i)
       o.sigma[i] = std::sqrt(v.covariance(i, i)) * (i < 3 ? 1.0 : 180.0 / M_PI);
-    const double evidence[9] = {mi->getLastResult().search_converged ? 1.0 : 0.0,
+    const int weaker = v.free_direction_contrast[1] < v.free_direction_contrast[0] ? 1 : 0;
+    const double evidence[10] = {mi->getLastResult().search_converged ? 1.0 : 0.0,
                                 static_cast<double>(v.inliers),
                                 v.inlier_fraction,
                                 v.peak_contrast,
@@ -198,7 +199,8 @@ runMethod(const std::string& chain,
                                 std::min(v.free_direction_contrast[0],
                                          v.free_direction_contrast[1]),
                                 v.lead,
-                                std::fmin(v.free_turn_mi_loss[0], v.free_turn_mi_loss[1])};
+                                std::fmin(v.free_turn_mi_loss[0], v.free_turn_mi_loss[1]),
+                                v.observability_directions.col(weaker).tail<3>().norm()};
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
   }
   return o;

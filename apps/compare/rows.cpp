@@ -23,7 +23,8 @@ constexpr std::size_t kPoseFields = kLegacyFields + 3 + 2 * 12;
 constexpr std::size_t kVerdictFields = kPoseFields + 7;
 constexpr std::size_t kEvidenceFields = kVerdictFields + 7; // before the lead
 constexpr std::size_t kLeadFields = kEvidenceFields + 1;
-constexpr std::size_t kFields = kLeadFields + 1; // the free turns' MI loss
+constexpr std::size_t kTurnLossFields = kLeadFields + 1; // the free turns' MI loss
+constexpr std::size_t kFields = kTurnLossFields + 1;     // the weaker direction's turn share
 } // namespace
 
 /** The first 14 columns are the original format, which readRows() still accepts; the columns
@@ -44,7 +45,7 @@ csvHeader(bool with_poses)
         h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
   h += ",confidence,sd_x_m,sd_y_m,sd_z_m,sd_roll_deg,sd_pitch_deg,sd_yaw_deg";
   h += ",search_converged,inliers,inlier_fraction,peak_contrast,weakest_contrast,normalized_mi,"
-       "free_direction_contrast,lead,free_turn_mi_loss";
+       "free_direction_contrast,lead,free_turn_mi_loss,free_direction_turn_share";
   return h;
 }
 
@@ -106,7 +107,8 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
         line == header.substr(0, header.find(",confidence")) ||
         line == header.substr(0, header.find(",search_converged")) ||
         line == header.substr(0, header.find(",lead")) ||
-        line == header.substr(0, header.find(",free_turn_mi_loss")))
+        line == header.substr(0, header.find(",free_turn_mi_loss")) ||
+        line == header.substr(0, header.find(",free_direction_turn_share")))
       continue;
     std::vector<std::string> f;
     std::stringstream ss(line);
@@ -115,7 +117,8 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
       f.push_back(item);
     try {
       if (f.size() != kLegacyFields && f.size() != kPoseFields && f.size() != kVerdictFields &&
-          f.size() != kEvidenceFields && f.size() != kLeadFields && f.size() != kFields)
+          f.size() != kEvidenceFields && f.size() != kLeadFields && f.size() != kTurnLossFields &&
+          f.size() != kFields)
         throw std::invalid_argument("field count");
       Row r;
       r.sequence = f[0];

@@ -42,9 +42,11 @@ struct Row {
   /** The evidence behind MI's confidence (pcl_mi::Verification), for refitting its model:
    * search converged (0/1), inliers, inlier fraction, peak contrast, weakest contrast,
    * normalised MI, the smaller free-direction contrast, the lead of a narrow view (NaN
-   * for a 360-degree one) and the smaller MI loss of the free turns asked of the MI (NaN
-   * where none was). NaN as above; the last two also in rows of files without them. */
-  double evidence[9] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+   * for a 360-degree one), the smaller MI loss of the free turns asked of the MI (NaN
+   * where none was) and how much of the direction with the smaller contrast is a turn (the
+   * norm of its rotation part, scaled by the RMS radius, in [0, 1]). NaN as above; the last
+   * three also in rows of files without them. */
+  double evidence[10] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
 };
