@@ -409,10 +409,11 @@ refineToDistributions(const TargetDistributions& target,
     const Eigen::Matrix3f r = result.rotation.cast<float>();
     const Eigen::Vector3f t = result.translation.cast<float>();
     parallelFor(kChunks, options.num_threads, [&](int chunk) {
-      Partial& p = partials[static_cast<std::size_t>(chunk)];
-      p.h.setZero();
-      p.g.setZero();
-      p.matched = 0;
+      // The sums in locals, not in the shared partials: the compiler may then keep them in
+      // registers instead of storing and reloading them for every sample.
+      Eigen::Matrix<float, 6, 6> h = Eigen::Matrix<float, 6, 6>::Zero();
+      Eigen::Matrix<float, 6, 1> g = Eigen::Matrix<float, 6, 1>::Zero();
+      std::size_t matched = 0;
       visitInCubes(target, source, r, t, n * chunk / kChunks, n * (chunk + 1) / kChunks, 1,
                    [&](const Eigen::Vector3f& q, int k) {
                      if (k < 0)
@@ -423,11 +424,15 @@ refineToDistributions(const TargetDistributions& target,
                      const float m = e.dot(info * e);
                      // Cauchy weight: residuals far beyond the kernel scale barely pull.
                      const float w = 1.0f / (1.0f + m / c2);
-                     addToNormalEquations(q, e, info, w, p.h, p.g);
-                     ++p.matched;
+                     addToNormalEquations(q, e, info, w, h, g);
+                     ++matched;
                    });
       // addToNormalEquations() leaves the lower left block to the caller.
-      p.h.bottomLeftCorner<3, 3>() = p.h.topRightCorner<3, 3>().transpose();
+      h.bottomLeftCorner<3, 3>() = h.topRightCorner<3, 3>().transpose();
+      Partial& p = partials[static_cast<std::size_t>(chunk)];
+      p.h = h;
+      p.g = g;
+      p.matched = matched;
     });
     Matrix6d h = Matrix6d::Zero();
     Vector6d g = Vector6d::Zero();
