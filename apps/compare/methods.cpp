@@ -191,16 +191,16 @@ runMethod(const std::string& chain,
       o.sigma[i] = std::sqrt(v.covariance(i, i)) * (i < 3 ? 1.0 : 180.0 / M_PI);
     const int weaker = v.free_direction_contrast[1] < v.free_direction_contrast[0] ? 1 : 0;
     const double evidence[10] = {mi->getLastResult().search_converged ? 1.0 : 0.0,
-                                static_cast<double>(v.inliers),
-                                v.inlier_fraction,
-                                v.peak_contrast,
-                                v.weakest_contrast,
-                                v.normalized_mi,
-                                std::min(v.free_direction_contrast[0],
-                                         v.free_direction_contrast[1]),
-                                v.lead,
-                                std::fmin(v.free_turn_mi_loss[0], v.free_turn_mi_loss[1]),
-                                v.observability_directions.col(weaker).tail<3>().norm()};
+                                 static_cast<double>(v.inliers),
+                                 v.inlier_fraction,
+                                 v.peak_contrast,
+                                 v.weakest_contrast,
+                                 v.normalized_mi,
+                                 std::min(v.free_direction_contrast[0],
+                                          v.free_direction_contrast[1]),
+                                 v.lead,
+                                 std::fmin(v.free_turn_mi_loss[0], v.free_turn_mi_loss[1]),
+                                 v.observability_directions.col(weaker).tail<3>().norm()};
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
   }
   return o;
