@@ -622,6 +622,28 @@ TEST(Registration, ACloudGrownInPlaceAfterItWasSetIsReadAgain)
   EXPECT_EQ(reg.evaluate(pose), expected);
 }
 
+TEST(Registration, ATargetGrownBeforeAResolutionIsDerivedIsReadAgain)
+{
+  // Found by fuzz_api under ASan: a target that grew (and moved in memory) after
+  // setInputTarget(), then a switch from a set resolution to a derived one, derived it from
+  // the target's old storage, freed by then. The grown target must be the one read.
+  auto full = test_data::loadScan("00", 0);
+  auto target = pcl::make_shared<Cloud>();
+  for (const auto& p : *full) // a room-sized corner of a street scan
+    if (std::abs(p.x) < 4.0f && std::abs(p.y) < 4.0f)
+      target->push_back(p);
+  target->points.shrink_to_fit();
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setResolution(1.0);
+  reg.setInputTarget(target);
+  target->insert(target->end(), full->begin(), full->end());
+  reg.setResolution(0.0);
+  pcl::MutualInformationRegistration<pcl::PointXYZ> fresh;
+  fresh.setInputTarget(pcl::make_shared<Cloud>(*target));
+  EXPECT_EQ(reg.getResolution(), fresh.getResolution());
+  EXPECT_GE(reg.getResolution(), 1.0); // a street scan's, not the corner's
+}
+
 } // namespace
 
 namespace {
