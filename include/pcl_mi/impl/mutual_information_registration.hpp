@@ -376,8 +376,10 @@ MutualInformationRegistration<PointSource, PointTarget, Scalar>::applyParameters
     const pcl_mi::Parameters& parameters, const char* setter)
 {
   // A derived resolution reads the target: one that grew or moved in memory since it was
-  // set is handed over again first, so the view never points into freed storage.
-  updateTarget();
+  // set is handed over again first, so the view never points into freed storage. Without a
+  // target there is nothing to read, and the resolution stays unknown.
+  if (target_)
+    updateTarget();
   const std::string error = core_.setParameters(parameters);
   if (!error.empty()) {
     PCL_ERROR("[pcl::%s::%s] %s; keeping the previous value.\n",
