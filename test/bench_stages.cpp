@@ -96,11 +96,13 @@ void
 BM_LocalCloud(benchmark::State& state)
 {
   const Pair& p = pair();
+  const int threads = static_cast<int>(state.range(0));
   for (auto _ : state)
-    benchmark::DoNotOptimize(
-        pcl_mi::core::makeLocalCloud(p.target_points, pcl_mi::core::kOutlierGapVoxels * p.resolution()));
+    benchmark::DoNotOptimize(pcl_mi::core::makeLocalCloud(
+        p.target_points, pcl_mi::core::kOutlierGapVoxels * p.resolution(), threads));
 }
-BENCHMARK(BM_LocalCloud)->Unit(benchmark::kMillisecond);
+// On one thread as a target beside a new source; on two as a new source alone (scan to map).
+BENCHMARK(BM_LocalCloud)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 void
 BM_InputChecks(benchmark::State& state)
