@@ -154,8 +154,13 @@ showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
 #endif
 }
 
+using Cloud = pcl::PointCloud<pcl::PointXYZI>;
+using Registration = pcl::MutualInformationRegistration<pcl::PointXYZI>;
+
+/** Help, or a command line this app refuses: the exit code (help 0, refused 2); -1 to go
+ * on. */
 int
-run(int argc, char** argv)
+checkCommandLine(int argc, char** argv)
 {
   if (pcl::console::find_switch(argc, argv, "-h") ||
       pcl::console::find_switch(argc, argv, "--help")) {
@@ -180,10 +185,203 @@ run(int argc, char** argv)
     print_error("pcl_mi_align: %s\n", bad_option.c_str());
     return 2;
   }
-  const std::string source_path = argv[1], target_path = argv[2];
+  return -1;
+}
 
-  auto source = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>();
-  auto target = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>();
+/** Reads the transform file \a flag names into \a transform; true when the flag is absent
+ * (\a transform untouched, \a given false) or the file was read, false (said why) when not. */
+bool
+readTransformFile(int argc,
+                  char** argv,
+                  const char* flag,
+                  Eigen::Matrix4d& transform,
+                  bool& given)
+{
+  std::string path;
+  given = pcl::console::parse_argument(argc, argv, flag, path) > 0;
+  if (!given)
+    return true;
+  const std::string error = pcl_mi::io::loadTransform(path, transform);
+  if (!error.empty())
+    print_error("pcl_mi_align: %s\n", error.c_str());
+  return error.empty();
+}
+
+/** The guess (-guess, then -guess_file over it) and the reference (-reference); false (said
+ * why) when one is malformed or unreadable. */
+bool
+readPoses(int argc,
+          char** argv,
+          Eigen::Matrix4d& guess,
+          Eigen::Matrix4d& reference,
+          bool& has_reference)
+{
+  guess = reference = Eigen::Matrix4d::Identity();
+  Eigen::Matrix<double, 6, 1> guess_values;
+  switch (parsePoseVector(argc, argv, "-guess", guess_values)) {
+  case 0:
+    return false;
+  case 1:
+    guess = transformFromGuess(guess_values);
+  }
+  bool guess_file = false;
+  return readTransformFile(argc, argv, "-guess_file", guess, guess_file) &&
+         readTransformFile(argc, argv, "-reference", reference, has_reference);
+}
+
+/** The verdict, the confidence and the standard deviations of the last alignment. */
+void
+printVerdict(const Registration& reg)
+{
+  print_info("Converged: ");
+  print_value("%s\n", reg.hasConverged() ? "yes (search converged, result verified)"
+                                         : ("no: " + reg.getLastError()).c_str());
+  print_info("Confidence: ");
+  print_value("%.3f", reg.getConfidence());
+  print_info(" (probability of < 0.5 m and < 2 deg)\n");
+  const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
+  if (covariance.diagonal().maxCoeff() > 0.0) {
+    const Eigen::Matrix<double, 6, 1> sd = covariance.diagonal().cwiseSqrt();
+    print_info("Standard deviations: ");
+    print_value("x %.3f, y %.3f, z %.3f m; roll %.3f, pitch %.3f, yaw %.3f deg\n", sd[0], sd[1],
+                sd[2], sd[3] * 180.0 / M_PI, sd[4] * 180.0 / M_PI, sd[5] * 180.0 / M_PI);
+  }
+}
+
+/** What the search did beyond its plain path (the starts a narrow view adds, leveling,
+ * runners-up, the reverse search, a shifted optimum) and the refinement's iterations. */
+void
+printSearchDetails(const Registration& reg, const pcl_mi::Parameters& parameters)
+{
+  const pcl_mi::AlignmentResult& result = reg.getLastResult();
+  if (result.position_starts > 0) {
+    print_info("Position starts: ");
+    print_value("%d%s\n", result.position_starts,
+                result.position_starts > parameters.search.position_starts
+                    ? " (narrow field of view)"
+                    : "");
+  }
+  if (result.yaw_starts > 0) {
+    print_info("Yaw starts: ");
+    print_value("%d (narrow field of view, +-%.0f deg)\n", result.yaw_starts,
+                parameters.search.narrow_view_yaw_start * 180.0 / M_PI);
+  }
+  if (result.scanned_starts > 0) {
+    print_info("Scanned starts: ");
+    print_value("%d (narrow field of view)\n", result.scanned_starts);
+  }
+  if (result.refinement_stages > 1) {
+    print_info("Refinement stages: ");
+    print_value("%d (narrow field of view)\n", result.refinement_stages);
+  }
+  if (result.leveled) {
+    print_info("Leveled: ");
+    print_value("yes (the search ran along the target's up direction)\n");
+  }
+  if (result.runners_up_checked > 0) {
+    print_info("Runners-up of the search checked: ");
+    print_value("%d, %s\n", result.runners_up_checked,
+                result.runner_up_kept
+                    ? "one kept (it agrees better with the target on the finest grid)"
+                    : "none kept");
+  }
+  if (result.reverse_search) {
+    print_info("Reverse search: ");
+    print_value("%s\n", result.reverse_kept
+                            ? "kept (an optimum of the target searched onto the source agrees "
+                              "better with the target on the finest grid)"
+                            : "ran, not kept");
+  }
+  if (result.shifted_optimum_kept) {
+    print_info("Shifted optimum: ");
+    print_value("kept (a higher MI on the finest grid a few voxels across, at the same "
+                "rotation)\n");
+  }
+  if (!std::isnan(reg.getVerification().lead)) {
+    print_info("Lead over the optima a few voxels across: ");
+    print_value("%+.0f %% of the MI (narrow field of view)\n", 100.0 * reg.getVerification().lead);
+  }
+  if (reg.getNumberOfRefinementIterations() > 0) {
+    print_info("Refinement iterations: ");
+    print_value("%d\n", reg.getNumberOfRefinementIterations());
+  }
+}
+
+/** Where the last alignment's time went, stage by stage, and its backend's own stages. */
+void
+printProfile(const Registration& reg, double seconds)
+{
+  print_info("Profile (wall-clock, including setInputSource/Target: %.1f ms):\n", seconds * 1e3);
+  print_info("  %-16s %8s %10s\n", "stage", "calls", "total ms");
+  for (const pcl_mi::StageTiming& stage : reg.getLastResult().stages)
+    print_value("  %-16s %8d %10.2f\n", stage.name.c_str(), stage.calls, stage.total_ms);
+  print_info("Backend %s, its stages summed over the alignment:\n",
+             reg.core().backendName().c_str());
+  print_info("  %-30s %8s %10s\n", "stage", "calls", "total ms");
+  for (const pcl_mi::StageTiming& stage : reg.getBackendProfile())
+    print_value("  %-30s %8d %10.2f\n", stage.name.c_str(), stage.calls, stage.total_ms);
+}
+
+/** Writes the aligned source to \a aligned_path and target + aligned source to
+ * \a merged_path; false (said why) when either cannot be written. */
+bool
+writeClouds(const std::string& aligned_path,
+            const std::string& merged_path,
+            const Cloud& target,
+            const Cloud& aligned)
+{
+  // PCL's writer throws pcl::IOException on a path it cannot open.
+  bool written = false;
+  try {
+    written = pcl::io::savePCDFileBinary(aligned_path, aligned) >= 0;
+  }
+  catch (const std::exception&) {
+  }
+  if (!written) {
+    print_error("pcl_mi_align: cannot write '%s'\n", aligned_path.c_str());
+    return false;
+  }
+  const std::string write_error = pcl_mi::io::saveMergedPcd(merged_path, target, aligned);
+  if (!write_error.empty())
+    print_error("pcl_mi_align: %s\n", write_error.c_str());
+  return write_error.empty();
+}
+
+/** Applies the MI options of the command line to \a reg, and gives the parameters it then
+ * has; false (said why) when an option's value is refused. */
+bool
+configure(int argc, char** argv, Registration& reg, pcl_mi::Parameters& parameters)
+{
+  parameters = reg.getParameters();
+  int max_iterations = reg.getMaximumIterations();
+  const std::string invalid =
+      pcl_mi::apps::applyMiOptions(argc, argv, parameters, max_iterations);
+  if (!invalid.empty()) {
+    print_error("pcl_mi_align: %s\n", invalid.c_str());
+    return false;
+  }
+  reg.setParameters(parameters);
+  reg.setMaximumIterations(max_iterations);
+  return true;
+}
+
+/** Prints "Wrote PATH". */
+void
+printWrote(const std::string& path)
+{
+  print_info("Wrote ");
+  print_value("%s\n", path.c_str());
+}
+
+int
+run(int argc, char** argv)
+{
+  const int refused = checkCommandLine(argc, argv);
+  if (refused >= 0)
+    return refused;
+  const std::string source_path = argv[1], target_path = argv[2];
+  auto source = pcl::make_shared<Cloud>();
+  auto target = pcl::make_shared<Cloud>();
   for (const auto& [path, cloud] : {std::make_pair(source_path, source),
                                     std::make_pair(target_path, target)}) {
     const std::string error = pcl_mi::io::loadCloud(path, *cloud);
@@ -192,53 +390,23 @@ run(int argc, char** argv)
       return 1;
     }
   }
-
-  Eigen::Matrix4d guess = Eigen::Matrix4d::Identity();
-  Eigen::Matrix<double, 6, 1> guess_values;
-  switch (parsePoseVector(argc, argv, "-guess", guess_values)) {
-  case 0:
+  Eigen::Matrix4d guess, reference;
+  bool has_reference = false;
+  if (!readPoses(argc, argv, guess, reference, has_reference))
     return 1;
-  case 1:
-    guess = transformFromGuess(guess_values);
-  }
-  std::string guess_file, reference_file;
-  if (pcl::console::parse_argument(argc, argv, "-guess_file", guess_file) > 0) {
-    const std::string error = pcl_mi::io::loadTransform(guess_file, guess);
-    if (!error.empty()) {
-      print_error("pcl_mi_align: %s\n", error.c_str());
-      return 1;
-    }
-  }
-  Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
-  const bool has_reference =
-      pcl::console::parse_argument(argc, argv, "-reference", reference_file) > 0;
-  if (has_reference) {
-    const std::string error = pcl_mi::io::loadTransform(reference_file, reference);
-    if (!error.empty()) {
-      print_error("pcl_mi_align: %s\n", error.c_str());
-      return 1;
-    }
-  }
 
   // On the heap so that its internal copies of the clouds can go before the outputs are
   // written (large inputs).
-  auto registration = std::make_unique<pcl::MutualInformationRegistration<pcl::PointXYZI>>();
+  auto registration = std::make_unique<Registration>();
   auto& reg = *registration;
   std::string aligned_path = "aligned.pcd", merged_path = "merged.pcd", transform_path;
   pcl::console::parse_argument(argc, argv, "-transform", transform_path);
   pcl::console::parse_argument(argc, argv, "-aligned", aligned_path);
   pcl::console::parse_argument(argc, argv, "-merged", merged_path);
 
-  pcl_mi::Parameters parameters = reg.getParameters();
-  int max_iterations = reg.getMaximumIterations();
-  const std::string invalid =
-      pcl_mi::apps::applyMiOptions(argc, argv, parameters, max_iterations);
-  if (!invalid.empty()) {
-    print_error("pcl_mi_align: %s\n", invalid.c_str());
+  pcl_mi::Parameters parameters;
+  if (!configure(argc, argv, reg, parameters))
     return 1;
-  }
-  reg.setParameters(parameters);
-  reg.setMaximumIterations(max_iterations);
   const bool varz = parameters.grid.feature == pcl_mi::Feature::VarianceZ;
 
   const auto start = std::chrono::steady_clock::now();
@@ -251,7 +419,7 @@ run(int argc, char** argv)
   print_value("%s (%zu points)\n", target_path.c_str(), target->size());
   print_info("MI-%s, resolution ", varz ? "VARZ" : "N");
   print_value("%g%s\n", resolution, parameters.grid.resolution == 0.0 ? " (derived)" : "");
-  pcl::PointCloud<pcl::PointXYZI> aligned;
+  Cloud aligned;
   reg.align(aligned, guess.cast<float>());
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -280,82 +448,10 @@ run(int argc, char** argv)
   print_value("%d", reg.getNumberOfEvaluations());
   print_info(", time: ");
   print_value("%.3f s\n", seconds);
-  print_info("Converged: ");
-  print_value("%s\n", reg.hasConverged() ? "yes (search converged, result verified)"
-                                         : ("no: " + reg.getLastError()).c_str());
-  print_info("Confidence: ");
-  print_value("%.3f", reg.getConfidence());
-  print_info(" (probability of < 0.5 m and < 2 deg)\n");
-  const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
-  if (covariance.diagonal().maxCoeff() > 0.0) {
-    const Eigen::Matrix<double, 6, 1> sd = covariance.diagonal().cwiseSqrt();
-    print_info("Standard deviations: ");
-    print_value("x %.3f, y %.3f, z %.3f m; roll %.3f, pitch %.3f, yaw %.3f deg\n", sd[0], sd[1],
-                sd[2], sd[3] * 180.0 / M_PI, sd[4] * 180.0 / M_PI, sd[5] * 180.0 / M_PI);
-  }
-  if (reg.getLastResult().position_starts > 0) {
-    print_info("Position starts: ");
-    print_value("%d%s\n", reg.getLastResult().position_starts,
-                reg.getLastResult().position_starts > parameters.search.position_starts
-                    ? " (narrow field of view)"
-                    : "");
-  }
-  if (reg.getLastResult().yaw_starts > 0) {
-    print_info("Yaw starts: ");
-    print_value("%d (narrow field of view, +-%.0f deg)\n", reg.getLastResult().yaw_starts,
-                parameters.search.narrow_view_yaw_start * 180.0 / M_PI);
-  }
-  if (reg.getLastResult().scanned_starts > 0) {
-    print_info("Scanned starts: ");
-    print_value("%d (narrow field of view)\n", reg.getLastResult().scanned_starts);
-  }
-  if (reg.getLastResult().refinement_stages > 1) {
-    print_info("Refinement stages: ");
-    print_value("%d (narrow field of view)\n", reg.getLastResult().refinement_stages);
-  }
-  if (reg.getLastResult().leveled) {
-    print_info("Leveled: ");
-    print_value("yes (the search ran along the target's up direction)\n");
-  }
-  if (reg.getLastResult().runners_up_checked > 0) {
-    print_info("Runners-up of the search checked: ");
-    print_value("%d, %s\n", reg.getLastResult().runners_up_checked,
-                reg.getLastResult().runner_up_kept
-                    ? "one kept (it agrees better with the target on the finest grid)"
-                    : "none kept");
-  }
-  if (reg.getLastResult().reverse_search) {
-    print_info("Reverse search: ");
-    print_value("%s\n", reg.getLastResult().reverse_kept
-                            ? "kept (an optimum of the target searched onto the source agrees "
-                              "better with the target on the finest grid)"
-                            : "ran, not kept");
-  }
-  if (reg.getLastResult().shifted_optimum_kept) {
-    print_info("Shifted optimum: ");
-    print_value("kept (a higher MI on the finest grid a few voxels across, at the same "
-                "rotation)\n");
-  }
-  if (!std::isnan(reg.getVerification().lead)) {
-    print_info("Lead over the optima a few voxels across: ");
-    print_value("%+.0f %% of the MI (narrow field of view)\n", 100.0 * reg.getVerification().lead);
-  }
-  if (reg.getNumberOfRefinementIterations() > 0) {
-    print_info("Refinement iterations: ");
-    print_value("%d\n", reg.getNumberOfRefinementIterations());
-  }
-  if (pcl::console::find_switch(argc, argv, "-profile")) {
-    print_info("Profile (wall-clock, including setInputSource/Target: %.1f ms):\n",
-               seconds * 1e3);
-    print_info("  %-16s %8s %10s\n", "stage", "calls", "total ms");
-    for (const pcl_mi::StageTiming& stage : reg.getLastResult().stages)
-      print_value("  %-16s %8d %10.2f\n", stage.name.c_str(), stage.calls, stage.total_ms);
-    print_info("Backend %s, its stages summed over the alignment:\n",
-               reg.core().backendName().c_str());
-    print_info("  %-30s %8s %10s\n", "stage", "calls", "total ms");
-    for (const pcl_mi::StageTiming& stage : reg.getBackendProfile())
-      print_value("  %-30s %8d %10.2f\n", stage.name.c_str(), stage.calls, stage.total_ms);
-  }
+  printVerdict(reg);
+  printSearchDetails(reg, parameters);
+  if (pcl::console::find_switch(argc, argv, "-profile"))
+    printProfile(reg, seconds);
   if (has_reference) {
     const auto e = pcl_mi::io::poseError(result, reference);
     print_info("Error against reference: ");
@@ -372,39 +468,19 @@ run(int argc, char** argv)
   if (!show)
     source.reset();
   const bool write_clouds = !pcl::console::find_switch(argc, argv, "-no_output");
-  if (write_clouds) {
-    // PCL's writer throws pcl::IOException on a path it cannot open.
-    bool written = false;
-    try {
-      written = pcl::io::savePCDFileBinary(aligned_path, aligned) >= 0;
-    }
-    catch (const std::exception&) {
-    }
-    if (!written) {
-      print_error("pcl_mi_align: cannot write '%s'\n", aligned_path.c_str());
-      return 1;
-    }
-    const std::string write_error = pcl_mi::io::saveMergedPcd(merged_path, *target, aligned);
-    if (!write_error.empty()) {
-      print_error("pcl_mi_align: %s\n", write_error.c_str());
-      return 1;
-    }
-  }
+  if (write_clouds && !writeClouds(aligned_path, merged_path, *target, aligned))
+    return 1;
   if (show) {
-    auto before = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>();
+    auto before = pcl::make_shared<Cloud>();
     pcl::transformPointCloud(*source, *before, guess.cast<float>());
-    auto after = pcl::make_shared<pcl::PointCloud<pcl::PointXYZI>>(aligned);
+    auto after = pcl::make_shared<Cloud>(aligned);
     if (!showBeforeAfter(target, before, after, screenshot))
       return 1;
-    if (!screenshot.empty()) {
-      print_info("Wrote ");
-      print_value("%s\n", screenshot.c_str());
-    }
+    if (!screenshot.empty())
+      printWrote(screenshot);
   }
-  if (!transform_path.empty()) {
-    print_info("Wrote ");
-    print_value("%s\n", transform_path.c_str());
-  }
+  if (!transform_path.empty())
+    printWrote(transform_path);
   if (write_clouds) {
     print_info("Wrote ");
     print_value("%s", aligned_path.c_str());
