@@ -62,8 +62,9 @@ usage()
 {
   std::printf(
       "Usage: pcl_mi_backend_bench [options]\n"
-      "Times RegistrationCore alignments (both clouds set, then align) and single cost evaluations per backend on KITTI\n"
-      "pairs (both directions, identity guess), and prints the OpenCL kernels' times.\n"
+      "Times RegistrationCore alignments (both clouds set, then align) and single cost\n"
+      "evaluations per backend on KITTI pairs (both directions, identity guess), and prints\n"
+      "the OpenCL kernels' times.\n"
       "  -kitti DIR           KITTI odometry root (default data/kitti)\n"
       "  -pairs S:I:J,...     pairs as sequence:target frame:source frame (default\n"
       "                       00:0:9,02:0:6, the bundled pairs)\n"
@@ -93,68 +94,71 @@ struct Row {
   std::string backend_name;
 };
 
-int
-run(int argc, char** argv)
-{
-  std::string root = "data/kitti", pairs_arg = "00:0:9,02:0:6", poses_kind = "auto";
-  std::string backends_arg = "cpu,opencl", configs_arg = "default,paper", device_arg;
+/** The command line. */
+struct Options {
+  std::string root = "data/kitti", pairs = "00:0:9,02:0:6", poses_kind = "auto";
+  std::vector<std::string> backends, configs; // -backends, -configs: see parseOptions()
   int repeat = 5, evaluations = 200, threads = 0;
+  int platform = -1, device = -1; // OpenCL
+};
+
+/** Reads the command line into \a o: the exit code where it ends the run (help 0, a bad
+ * option 1, said why), else -1. */
+int
+parseOptions(int argc, char** argv, Options& o)
+{
+  std::string backends = "cpu,opencl", configs = "default,paper", device;
+  const std::map<std::string, std::string*> texts = {
+      {"-kitti", &o.root},           {"-pairs", &o.pairs},     {"-poses", &o.poses_kind},
+      {"-backends", &backends},      {"-configs", &configs},   {"-opencl_device", &device}};
+  const std::map<std::string, int*> numbers = {
+      {"-repeat", &o.repeat}, {"-evaluations", &o.evaluations}, {"-threads", &o.threads}};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "pcl_mi_backend_bench: %s needs a value\n", a.c_str());
-        std::exit(1);
-      }
-      return argv[++i];
-    };
     if (a == "-h" || a == "--help") {
       usage();
       return 0;
     }
-    else if (a == "-kitti")
-      root = next();
-    else if (a == "-pairs")
-      pairs_arg = next();
-    else if (a == "-poses")
-      poses_kind = next();
-    else if (a == "-backends")
-      backends_arg = next();
-    else if (a == "-configs")
-      configs_arg = next();
-    else if (a == "-repeat")
-      repeat = std::atoi(next().c_str());
-    else if (a == "-evaluations")
-      evaluations = std::atoi(next().c_str());
-    else if (a == "-threads")
-      threads = std::atoi(next().c_str());
-    else if (a == "-opencl_device")
-      device_arg = next();
-    else {
+    if (!texts.count(a) && !numbers.count(a)) {
       std::fprintf(stderr, "pcl_mi_backend_bench: unknown option '%s' (see -h)\n", a.c_str());
       return 1;
     }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "pcl_mi_backend_bench: %s needs a value\n", a.c_str());
+      return 1;
+    }
+    const std::string value = argv[++i];
+    if (texts.count(a))
+      *texts.at(a) = value;
+    else
+      *numbers.at(a) = std::atoi(value.c_str());
   }
-  if (repeat < 2 || evaluations < 1 || threads < 0 ||
-      pcl_mi::apps::kittiPosesPath("", "", poses_kind).empty()) {
+  o.backends = split(backends, ',');
+  o.configs = split(configs, ',');
+  if (o.repeat < 2 || o.evaluations < 1 || o.threads < 0 ||
+      pcl_mi::apps::kittiPosesPath("", "", o.poses_kind).empty()) {
     std::fprintf(stderr, "pcl_mi_backend_bench: -repeat must be >= 2, -evaluations >= 1, "
                          "-threads >= 0, -poses semantic, gt or auto\n");
     return 1;
   }
-  int platform = -1, device = -1;
-  if (!device_arg.empty() && std::sscanf(device_arg.c_str(), "%d,%d", &platform, &device) != 2) {
+  if (!device.empty() && std::sscanf(device.c_str(), "%d,%d", &o.platform, &o.device) != 2) {
     std::fprintf(stderr, "pcl_mi_backend_bench: -opencl_device expects P,D\n");
     return 1;
   }
+  return -1;
+}
 
-  // Load every pair once, both scans and the reference.
-  std::vector<Pair> pairs;
+/** Every pair of \a o, each in both directions (the backward one: source = the earlier
+ * scan), scans and reference read once; false (said why) when one cannot be read. */
+bool
+loadPairs(const Options& o, std::vector<Pair>& pairs)
+{
   std::map<std::string, std::pair<Eigen::Matrix4d, std::vector<Eigen::Matrix4d>>> sequences;
-  for (const auto& spec : split(pairs_arg, ',')) {
+  for (const auto& spec : split(o.pairs, ',')) {
     const auto f = split(spec, ':');
     if (f.size() != 3) {
       std::fprintf(stderr, "pcl_mi_backend_bench: bad pair '%s' (S:I:J)\n", spec.c_str());
-      return 1;
+      return false;
     }
     Pair p;
     p.sequence = f[0];
@@ -164,13 +168,13 @@ run(int argc, char** argv)
       Eigen::Matrix4d tr;
       std::vector<Eigen::Matrix4d> poses;
       std::string error = pcl_mi::kitti::loadCalibrationTr(
-          root + "/sequences/" + p.sequence + "/calib.txt", tr);
+          o.root + "/sequences/" + p.sequence + "/calib.txt", tr);
       if (error.empty())
         error = pcl_mi::kitti::loadPoses(
-            pcl_mi::apps::kittiPosesPath(root, p.sequence, poses_kind), poses);
+            pcl_mi::apps::kittiPosesPath(o.root, p.sequence, o.poses_kind), poses);
       if (!error.empty()) {
         std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", error.c_str());
-        return 1;
+        return false;
       }
       sequences[p.sequence] = {tr, poses};
     }
@@ -179,21 +183,20 @@ run(int argc, char** argv)
         std::min(p.target_frame, p.source_frame) < 0) {
       std::fprintf(stderr, "pcl_mi_backend_bench: pair '%s' is outside the poses file\n",
                    spec.c_str());
-      return 1;
+      return false;
     }
     p.reference = pcl_mi::kitti::relativeVelodyneTransform(tr, poses[p.target_frame],
                                                            poses[p.source_frame]);
-    std::string error =
-        pcl_mi::kitti::loadScan(pcl_mi::kitti::scanPath(root, p.sequence, p.target_frame), p.target);
+    std::string error = pcl_mi::kitti::loadScan(
+        pcl_mi::kitti::scanPath(o.root, p.sequence, p.target_frame), p.target);
     if (error.empty())
-      error = pcl_mi::kitti::loadScan(pcl_mi::kitti::scanPath(root, p.sequence, p.source_frame),
-                                      p.source);
+      error = pcl_mi::kitti::loadScan(
+          pcl_mi::kitti::scanPath(o.root, p.sequence, p.source_frame), p.source);
     if (!error.empty()) {
       std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", error.c_str());
-      return 1;
+      return false;
     }
     pairs.push_back(p);
-    // The backward direction: source = the earlier scan.
     Pair b;
     b.sequence = p.sequence;
     b.target_frame = p.source_frame;
@@ -203,141 +206,167 @@ run(int argc, char** argv)
     b.reference = p.reference.inverse();
     pairs.push_back(b);
   }
+  return true;
+}
 
-  std::vector<Row> rows;
-  for (const auto& config : split(configs_arg, ',')) {
-    for (const auto& backend_name : split(backends_arg, ',')) {
-      std::string error;
-      pcl_mi::Parameters parameters = configParameters(config, error);
-      // opencl-batch and opencl-single: OpenCL with Batching::On and Off.
-      std::string backend_type = backend_name;
-      if (backend_name == "opencl-batch" || backend_name == "opencl-single") {
-        backend_type = "opencl";
-        parameters.backend.batching = backend_name == "opencl-batch" ? pcl_mi::Batching::On
-                                                                     : pcl_mi::Batching::Off;
-      }
-      if (!error.empty() || !pcl_mi::parseBackend(backend_type, parameters.backend.type)) {
-        std::fprintf(stderr, "pcl_mi_backend_bench: %s\n",
-                     error.empty() ? ("unknown backend '" + backend_name + "'").c_str()
-                                   : error.c_str());
-        return 1;
-      }
-      parameters.backend.opencl_platform = platform;
-      parameters.backend.opencl_device = device;
-      if (threads > 0)
-        parameters.num_threads = threads;
-      for (const auto& p : pairs) {
-        Row row;
-        row.pair = p.sequence + ":" + std::to_string(p.source_frame) + "->" +
-                   std::to_string(p.target_frame);
-        row.config = config;
-        row.backend = backend_name;
-        std::fprintf(stderr, "[%zu/%zu] %s %s %s ...\n", rows.size() + 1,
-                     pairs.size() * split(configs_arg, ',').size() *
-                         split(backends_arg, ',').size(),
-                     row.pair.c_str(), config.c_str(), backend_name.c_str());
+/** The parameters of configuration \a config on backend \a backend of \a o (opencl-batch and
+ * opencl-single: OpenCL with Batching::On and Off); false (said why) for an unknown name. */
+bool
+backendParameters(const Options& o,
+                  const std::string& config,
+                  const std::string& backend,
+                  pcl_mi::Parameters& parameters)
+{
+  std::string error;
+  parameters = configParameters(config, error);
+  std::string backend_type = backend;
+  if (backend == "opencl-batch" || backend == "opencl-single") {
+    backend_type = "opencl";
+    parameters.backend.batching =
+        backend == "opencl-batch" ? pcl_mi::Batching::On : pcl_mi::Batching::Off;
+  }
+  if (!error.empty() || !pcl_mi::parseBackend(backend_type, parameters.backend.type)) {
+    std::fprintf(stderr, "pcl_mi_backend_bench: %s\n",
+                 error.empty() ? ("unknown backend '" + backend + "'").c_str() : error.c_str());
+    return false;
+  }
+  parameters.backend.opencl_platform = o.platform;
+  parameters.backend.opencl_device = o.device;
+  if (o.threads > 0)
+    parameters.num_threads = o.threads;
+  return true;
+}
 
-        pcl_mi::RegistrationCore core;
-        const std::string invalid = core.setParameters(parameters);
-        if (!invalid.empty()) {
-          std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", invalid.c_str());
-          return 1;
-        }
-        std::vector<double> align_s, evals;
-        pcl_mi::AlignmentResult result;
-        for (int r = 0; r < repeat; ++r) {
-          // What a pipeline pays per new pair: both clouds handed over (target features,
-          // device buffers) and the alignment.
-          const auto t0 = std::chrono::steady_clock::now();
-          core.setTarget(p.target);
-          core.setSource(p.source);
-          result = core.align(Eigen::Matrix4d::Identity());
-          const double s =
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-          if (!result.error.empty()) {
-            std::fprintf(stderr, "pcl_mi_backend_bench: %s %s: %s\n", row.pair.c_str(),
-                         backend_name.c_str(), result.error.c_str());
-            return 1;
-          }
-          if (r == 0)
-            row.first_s = s;
-          else { // the first alignment pays the backend's start-up
-            align_s.push_back(s);
-            evals.push_back(result.evaluations);
-          }
-        }
-        row.backend_name = core.backendName();
-        row.median_align_s = median(align_s);
-        row.transformation = result.transformation;
-        row.align_stages = result.stages;
-        row.evaluations = median(evals);
-        row.error_m = (result.transformation.topRightCorner<3, 1>() -
-                       p.reference.topRightCorner<3, 1>())
-                          .norm();
-        row.error_deg = rotationErrorDeg(result.transformation, p.reference);
+/** \a count poses around \a reference, +-2 m and +-5 deg, the same for every backend. */
+std::vector<Eigen::Matrix4d>
+posesAround(const Eigen::Matrix4d& reference, int count)
+{
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<Eigen::Matrix4d> poses;
+  for (int e = 0; e < count; ++e) {
+    const Eigen::Affine3d delta =
+        Eigen::Translation3d(2.0 * unit(rng), 2.0 * unit(rng), 0.2 * unit(rng)) *
+        Eigen::AngleAxisd(5.0 * M_PI / 180.0 * unit(rng), Eigen::Vector3d::UnitZ());
+    poses.push_back(delta.matrix() * reference);
+  }
+  return poses;
+}
 
-        // Single evaluations at poses around the reference, the same for every backend.
-        std::mt19937 rng(1);
-        std::uniform_real_distribution<double> unit(-1.0, 1.0);
-        std::vector<Eigen::Matrix4d> poses;
-        for (int e = 0; e < evaluations; ++e) {
-          const Eigen::Affine3d delta =
-              Eigen::Translation3d(2.0 * unit(rng), 2.0 * unit(rng), 0.2 * unit(rng)) *
-              Eigen::AngleAxisd(5.0 * M_PI / 180.0 * unit(rng), Eigen::Vector3d::UnitZ());
-          poses.push_back(delta.matrix() * p.reference);
-        }
-        auto evaluateAll = [&](std::vector<double>* microseconds) {
-          for (const Eigen::Matrix4d& pose : poses) {
-            const auto t0 = std::chrono::steady_clock::now();
-            std::string eval_error;
-            if (core.evaluate(pose, &eval_error) < 0.0) {
-              std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", eval_error.c_str());
-              std::exit(1);
-            }
-            if (microseconds)
-              microseconds->push_back(
-                  1e6 *
-                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-          }
-        };
-        std::vector<double> eval_us;
-        evaluateAll(&eval_us);
-        row.median_eval_us = median(eval_us);
+/** Evaluates the cost at every pose of \a poses, each timed into \a microseconds (if not
+ * null); false (said why) when an evaluation fails. */
+bool
+evaluateAll(pcl_mi::RegistrationCore& core,
+            const std::vector<Eigen::Matrix4d>& poses,
+            std::vector<double>* microseconds)
+{
+  for (const Eigen::Matrix4d& pose : poses) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::string error;
+    if (core.evaluate(pose, &error) < 0.0) {
+      std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", error.c_str());
+      return false;
+    }
+    if (microseconds)
+      microseconds->push_back(
+          1e6 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return true;
+}
 
-        // Fingerprint (FNV-1a) of the joint histograms at the same poses, for comparing
-        // backends count for count.
-        std::uint64_t hash = 1469598103934665603ull;
-        pcl_mi::JointHistogram histogram;
-        for (const Eigen::Matrix4d& pose : poses) {
-          std::string histogram_error;
-          if (!core.jointHistogram(pose, histogram, &histogram_error)) {
-            std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", histogram_error.c_str());
-            return 1;
-          }
-          for (const std::uint32_t c : histogram.counts)
-            hash = (hash ^ c) * 1099511628211ull;
-          hash = (hash ^ histogram.overlap_voxels) * 1099511628211ull;
-        }
-        row.histogram_hash = hash;
+/** Fingerprint (FNV-1a) of the joint histograms at \a poses, for comparing backends count for
+ * count; false (said why) when one cannot be computed. */
+bool
+histogramHash(pcl_mi::RegistrationCore& core,
+              const std::vector<Eigen::Matrix4d>& poses,
+              std::uint64_t& hash)
+{
+  hash = 1469598103934665603ull;
+  pcl_mi::JointHistogram histogram;
+  for (const Eigen::Matrix4d& pose : poses) {
+    std::string error;
+    if (!core.jointHistogram(pose, histogram, &error)) {
+      std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", error.c_str());
+      return false;
+    }
+    for (const std::uint32_t c : histogram.counts)
+      hash = (hash ^ c) * 1099511628211ull;
+    hash = (hash ^ histogram.overlap_voxels) * 1099511628211ull;
+  }
+  return true;
+}
 
-        // The backend stage tables come from a second pass with device profiling on: its
-        // events slow every evaluation down, so the timings above ran without.
-        pcl_mi::Parameters profiled = parameters;
-        profiled.backend.profile_device = true;
-        core.setParameters(profiled); // new backends, the same target and source
-        core.align(Eigen::Matrix4d::Identity());
-        row.align_profile = core.backendProfile();
-        core.resetBackendProfile();
-        evaluateAll(nullptr);
-        row.profile = core.backendProfile();
-        rows.push_back(row);
-      }
+/** Times \a o.repeat alignments of \a p (the first a warm-up), then single evaluations, the
+ * histograms' fingerprint and the backend's profile, into \a row; false (said why) on a
+ * failure. */
+bool
+measure(const Options& o, const Pair& p, const pcl_mi::Parameters& parameters, Row& row)
+{
+  pcl_mi::RegistrationCore core;
+  const std::string invalid = core.setParameters(parameters);
+  if (!invalid.empty()) {
+    std::fprintf(stderr, "pcl_mi_backend_bench: %s\n", invalid.c_str());
+    return false;
+  }
+  std::vector<double> align_s, evals;
+  pcl_mi::AlignmentResult result;
+  for (int r = 0; r < o.repeat; ++r) {
+    // What a pipeline pays per new pair: both clouds handed over (target features, device
+    // buffers) and the alignment.
+    const auto t0 = std::chrono::steady_clock::now();
+    core.setTarget(p.target);
+    core.setSource(p.source);
+    result = core.align(Eigen::Matrix4d::Identity());
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!result.error.empty()) {
+      std::fprintf(stderr, "pcl_mi_backend_bench: %s %s: %s\n", row.pair.c_str(),
+                   row.backend.c_str(), result.error.c_str());
+      return false;
+    }
+    if (r == 0)
+      row.first_s = s;
+    else { // the first alignment pays the backend's start-up
+      align_s.push_back(s);
+      evals.push_back(result.evaluations);
     }
   }
+  row.backend_name = core.backendName();
+  row.median_align_s = median(align_s);
+  row.transformation = result.transformation;
+  row.align_stages = result.stages;
+  row.evaluations = median(evals);
+  row.error_m =
+      (result.transformation.topRightCorner<3, 1>() - p.reference.topRightCorner<3, 1>()).norm();
+  row.error_deg = rotationErrorDeg(result.transformation, p.reference);
 
+  const std::vector<Eigen::Matrix4d> poses = posesAround(p.reference, o.evaluations);
+  std::vector<double> eval_us;
+  if (!evaluateAll(core, poses, &eval_us) || !histogramHash(core, poses, row.histogram_hash))
+    return false;
+  row.median_eval_us = median(eval_us);
+
+  // The backend stage tables come from a second pass with device profiling on: its events
+  // slow every evaluation down, so the timings above ran without.
+  pcl_mi::Parameters profiled = parameters;
+  profiled.backend.profile_device = true;
+  core.setParameters(profiled); // new backends, the same target and source
+  core.align(Eigen::Matrix4d::Identity());
+  row.align_profile = core.backendProfile();
+  core.resetBackendProfile();
+  if (!evaluateAll(core, poses, nullptr))
+    return false;
+  row.profile = core.backendProfile();
+  return true;
+}
+
+/** One line per row; returns how many rows' histograms differ from another backend's on the
+ * same pair and configuration. */
+int
+printRows(const Options& o, const std::vector<Row>& rows)
+{
   std::printf("\nAlignments (identity guess; median of %d after a warm-up) and single cost "
               "evaluations (median of %d)\n",
-              repeat - 1, evaluations);
+              o.repeat - 1, o.evaluations);
   // "pose diff": largest difference of the final transformation's entries from another
   // backend's on the same pair and configuration; "histograms": whether the joint
   // histograms at every evaluation pose equal that backend's, count for count. The
@@ -361,14 +390,19 @@ run(int argc, char** argv)
                 r.median_align_s, r.evaluations, r.error_m, r.error_deg, r.median_eval_us,
                 diff, same, r.backend_name.c_str());
   }
+  return mismatches;
+}
 
-  // Medians over pairs per (configuration, backend), and ratios to the first backend.
+/** Medians over pairs per (configuration, backend), and ratios to the first backend. */
+void
+printPerBackend(const Options& o, const std::vector<Row>& rows)
+{
   std::printf("\nPer configuration and backend (median over pairs and directions)\n");
   std::printf("%-8s %-7s %9s %10s %9s\n", "config", "backend", "align s", "eval us",
               "vs first");
-  for (const auto& config : split(configs_arg, ',')) {
+  for (const auto& config : o.configs) {
     double first = 0.0;
-    for (const auto& backend : split(backends_arg, ',')) {
+    for (const auto& backend : o.backends) {
       std::vector<double> a, e;
       for (const auto& r : rows)
         if (r.config == config && r.backend == backend) {
@@ -382,42 +416,87 @@ run(int argc, char** argv)
                   median(e), ma / first);
     }
   }
+}
 
-  // Stage tables: summed over the rows of each configuration and backend.
-  auto stageTable = [&](const char* title, const char* unit,
-                        std::vector<pcl_mi::StageTiming> Row::*member, bool per_call) {
-    std::printf("\n%s\n%-8s %-7s %-32s %8s %10s\n", title, "config", "backend", "stage",
-                "calls", unit);
-    for (const auto& config : split(configs_arg, ','))
-      for (const auto& backend : split(backends_arg, ',')) {
-        std::vector<std::string> order;
-        std::map<std::string, std::pair<long, double>> sum;
-        long num_rows = 0;
-        for (const auto& r : rows)
-          if (r.config == config && r.backend == backend) {
-            ++num_rows;
-            for (const auto& s : r.*member) {
-              if (!sum.count(s.name))
-                order.push_back(s.name);
-              sum[s.name].first += s.calls;
-              sum[s.name].second += s.total_ms;
-            }
+/** The stages in \a member summed over the rows of each configuration and backend: per call
+ * (in us) or per row (in ms). */
+void
+printStageTable(const Options& o,
+                const std::vector<Row>& rows,
+                const char* title,
+                const char* unit,
+                std::vector<pcl_mi::StageTiming> Row::*member,
+                bool per_call)
+{
+  std::printf("\n%s\n%-8s %-7s %-32s %8s %10s\n", title, "config", "backend", "stage", "calls",
+              unit);
+  for (const auto& config : o.configs)
+    for (const auto& backend : o.backends) {
+      std::vector<std::string> order;
+      std::map<std::string, std::pair<long, double>> sum;
+      long num_rows = 0;
+      for (const auto& r : rows)
+        if (r.config == config && r.backend == backend) {
+          ++num_rows;
+          for (const auto& s : r.*member) {
+            if (!sum.count(s.name))
+              order.push_back(s.name);
+            sum[s.name].first += s.calls;
+            sum[s.name].second += s.total_ms;
           }
-        for (const auto& name : order) {
-          const auto& [calls, ms] = sum[name];
-          const double value = per_call ? (calls ? 1000.0 * ms / calls : 0.0)
-                                        : (num_rows ? ms / num_rows : 0.0);
-          std::printf("%-8s %-7s %-32s %8ld %10.2f\n", config.c_str(), backend.c_str(),
-                      name.c_str(), calls, value);
         }
+      for (const auto& name : order) {
+        const auto& [calls, ms] = sum[name];
+        const double value =
+            per_call ? (calls ? 1000.0 * ms / calls : 0.0) : (num_rows ? ms / num_rows : 0.0);
+        std::printf("%-8s %-7s %-32s %8ld %10.2f\n", config.c_str(), backend.c_str(),
+                    name.c_str(), calls, value);
       }
-  };
-  stageTable("Backend stages of the single evaluations (device profiling on), per call",
-             "us/call", &Row::profile, true);
-  stageTable("Stages of one alignment (the last of each row), mean over pairs", "ms",
-             &Row::align_stages, false);
-  stageTable("Backend work within one alignment (device profiling on), mean over pairs",
-             "ms", &Row::align_profile, false);
+    }
+}
+
+int
+run(int argc, char** argv)
+{
+  Options o;
+  const int done = parseOptions(argc, argv, o);
+  if (done >= 0)
+    return done;
+  std::vector<Pair> pairs;
+  if (!loadPairs(o, pairs))
+    return 1;
+
+  std::vector<Row> rows;
+  const std::size_t total = pairs.size() * o.configs.size() * o.backends.size();
+  for (const auto& config : o.configs)
+    for (const auto& backend : o.backends) {
+      pcl_mi::Parameters parameters;
+      if (!backendParameters(o, config, backend, parameters))
+        return 1;
+      for (const auto& p : pairs) {
+        Row row;
+        row.pair = p.sequence + ":" + std::to_string(p.source_frame) + "->" +
+                   std::to_string(p.target_frame);
+        row.config = config;
+        row.backend = backend;
+        std::fprintf(stderr, "[%zu/%zu] %s %s %s ...\n", rows.size() + 1, total,
+                     row.pair.c_str(), config.c_str(), backend.c_str());
+        if (!measure(o, p, parameters, row))
+          return 1;
+        rows.push_back(row);
+      }
+    }
+
+  const int mismatches = printRows(o, rows);
+  printPerBackend(o, rows);
+  printStageTable(o, rows,
+                  "Backend stages of the single evaluations (device profiling on), per call",
+                  "us/call", &Row::profile, true);
+  printStageTable(o, rows, "Stages of one alignment (the last of each row), mean over pairs",
+                  "ms", &Row::align_stages, false);
+  printStageTable(o, rows,
+                  "Backend work within one alignment (device profiling on), mean over pairs",
+                  "ms", &Row::align_profile, false);
   if (mismatches) {
     std::printf("\nThe backends' joint histograms differ (%d rows): a backend bug.\n",
                 mismatches);
