@@ -34,35 +34,24 @@ constexpr long kHalfGapCells = 4096;
  * just below the median lies, would take the empty run's 0 as its minimum or maximum). */
 constexpr long kNoCell = std::numeric_limits<long>::min();
 
-/** Per axis, [low, high]: the values of the largest group of \a points, where groups are
- * split wherever two consecutive values (in sorted order) are at least \a gap apart.
- * Exact without sorting: values are put in cells of half a gap, which keep their count,
- * minimum and maximum; values in the same or neighbouring cells are less than a gap apart,
- * and across empty cells the gap is the next cell's minimum minus the last one's maximum.
- * The three axes share one pass, so that their updates of the few cells most points fall
- * into do not wait on one another. */
+/** Per axis, the count, least and greatest value of the points in a cell of bulkRanges(). */
+struct RangeCell {
+  std::size_t count = 0;
+  float min = 0.0f, max = 0.0f;
+};
+
+/** Cells per axis in bulkRanges(). */
+constexpr std::size_t kRangeCells = 2 * kHalfGapCells + 1;
+
+/** Adds the \a count points from \a first to \a cells: kRangeCells per axis, where cell k
+ * holds the values v with floor((v - median) * inv_width) = k - kHalfGapCells. */
 void
-bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vector3d& high)
+fillRangeCells(const Eigen::Vector3f* first,
+               std::size_t count,
+               const double median[3],
+               double inv_width,
+               RangeCell* cells)
 {
-  const std::size_t stride = std::max<std::size_t>(1, points.size() / kMedianSamples);
-  double median[3];
-  std::vector<float> sample;
-  sample.reserve(points.size() / stride + 1);
-  for (int axis = 0; axis < 3; ++axis) {
-    sample.clear();
-    for (std::size_t i = 0; i < points.size(); i += stride)
-      sample.push_back(points[i][axis]);
-    auto mid = sample.begin() + sample.size() / 2;
-    std::nth_element(sample.begin(), mid, sample.end());
-    median[axis] = *mid;
-  }
-  struct Cell {
-    std::size_t count = 0;
-    float min = 0.0f, max = 0.0f;
-  };
-  constexpr std::size_t kCells = 2 * kHalfGapCells + 1;
-  std::vector<Cell> cells(3 * kCells);
-  const double inv_width = 2.0 / gap;
   // Scans list their points in sweep order, so one cell usually takes long runs of
   // consecutive points: each axis gathers its current run in registers and writes it to the
   // cell when the run ends, instead of every point reading back the store of the one before.
@@ -76,7 +65,7 @@ bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vec
     const Run& r = runs[axis];
     if (r.count == 0)
       return;
-    Cell& c = cells[axis * kCells + static_cast<std::size_t>(r.cell + kHalfGapCells)];
+    RangeCell& c = cells[axis * kRangeCells + static_cast<std::size_t>(r.cell + kHalfGapCells)];
     c.min = c.count ? std::min(c.min, r.min) : r.min;
     c.max = c.count ? std::max(c.max, r.max) : r.max;
     c.count += r.count;
@@ -112,8 +101,8 @@ bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vec
   const auto inRun = [](__m128d d, __m128d cell, __m128d next) {
     return _mm_and_pd(_mm_cmple_pd(cell, d), _mm_cmplt_pd(d, next));
   };
-  for (; i + 4 <= points.size(); i += 4) {
-    const Eigen::Vector3f* p = points.data() + i;
+  for (; i + 4 <= count; i += 4) {
+    const Eigen::Vector3f* p = first + i;
     __m128 values[3];
     bool joined = true;
     for (int axis = 0; axis < 3 && joined; ++axis) {
@@ -142,17 +131,43 @@ bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vec
     }
   }
 #endif
-  for (; i < points.size(); ++i)
-    add(points[i]);
+  for (; i < count; ++i)
+    add(first[i]);
   for (int axis = 0; axis < 3; ++axis)
     flush(axis);
+}
+
+/** Per axis, [low, high]: the values of the largest group of \a points, where groups are
+ * split wherever two consecutive values (in sorted order) are at least \a gap apart.
+ * Exact without sorting: values are put in cells of half a gap, which keep their count,
+ * minimum and maximum; values in the same or neighbouring cells are less than a gap apart,
+ * and across empty cells the gap is the next cell's minimum minus the last one's maximum.
+ * The three axes share one pass, so that their updates of the few cells most points fall
+ * into do not wait on one another. */
+void
+bulkRanges(const PointList& points, double gap, Eigen::Vector3d& low, Eigen::Vector3d& high)
+{
+  const std::size_t stride = std::max<std::size_t>(1, points.size() / kMedianSamples);
+  double median[3];
+  std::vector<float> sample;
+  sample.reserve(points.size() / stride + 1);
+  for (int axis = 0; axis < 3; ++axis) {
+    sample.clear();
+    for (std::size_t i = 0; i < points.size(); i += stride)
+      sample.push_back(points[i][axis]);
+    auto mid = sample.begin() + sample.size() / 2;
+    std::nth_element(sample.begin(), mid, sample.end());
+    median[axis] = *mid;
+  }
+  std::vector<RangeCell> cells(3 * kRangeCells);
+  fillRangeCells(points.data(), points.size(), median, 2.0 / gap, cells.data());
   for (int axis = 0; axis < 3; ++axis) {
     // The groups in order; the first of equally large ones wins.
     std::size_t best = 0, current = 0;
     double group_low = 0.0, last_max = 0.0;
     low[axis] = high[axis] = median[axis];
-    for (std::size_t i = 0; i < kCells; ++i) {
-      const Cell& c = cells[axis * kCells + i];
+    for (std::size_t i = 0; i < kRangeCells; ++i) {
+      const RangeCell& c = cells[axis * kRangeCells + i];
       if (c.count == 0)
         continue;
       if (current > 0 && static_cast<double>(c.min) - last_max >= gap)
