@@ -224,8 +224,8 @@ readPoses(int argc,
   case 1:
     guess = transformFromGuess(guess_values);
   }
-  bool guess_file = false;
-  return readTransformFile(argc, argv, "-guess_file", guess, guess_file) &&
+  bool guess_file_given = false;
+  return readTransformFile(argc, argv, "-guess_file", guess, guess_file_given) &&
          readTransformFile(argc, argv, "-reference", reference, has_reference);
 }
 
