@@ -58,9 +58,9 @@ gicpCovariances(const Cloud::ConstPtr& cloud, const pcl::KdTreeFLANN<pcl::PointX
   return out;
 }
 
-/** GICP's objective as PCL computes it, over one pair: the mean over every 10th source point
- * with a target neighbour within 5 m of d^T (C_t + R C_s R^T)^-1 d, with the covariances of
- * gicpCovariances(). */
+/** GICP's objective as PCL computes it, over one pair: the mean of d^T (C_t + R C_s R^T)^-1 d
+ * over every 10th source point that has a target neighbour within 5 m, with the covariances
+ * of gicpCovariances(). */
 class GicpObjective {
 public:
   GicpObjective(Cloud::ConstPtr source, Cloud::ConstPtr target)
@@ -113,10 +113,10 @@ using Registration = pcl::MutualInformationRegistration<pcl::PointXYZ, pcl::Poin
 
 /** How far and how finely the poses around the reference are sampled. */
 struct Sampling {
-  double extent = 10.0;    ///< half-width of the (tx, ty) grid, m
-  double step = 0.25;      ///< its step, m
+  double extent = 10.0;     ///< half-width of the (tx, ty) grid, m
+  double step = 0.25;       ///< its step, m
   double yaw_extent = 45.0; ///< half-width of the heading sweep, deg
-  double yaw_step = 0.5;   ///< its step, deg
+  double yaw_step = 0.5;    ///< its step, deg
 };
 
 /** Poses around \a reference, moved in the target frame about the reference-placed source
