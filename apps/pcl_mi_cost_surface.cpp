@@ -119,6 +119,14 @@ struct Sampling {
   double yaw_step = 0.5;    ///< its step, deg
 };
 
+/** Whole steps of \a step on either side of zero within \a extent; an extent that is a
+ * multiple of the step up to rounding keeps its last step. */
+int
+stepsEachSide(double extent, double step)
+{
+  return static_cast<int>(std::floor(extent / step + 1e-9));
+}
+
 /** Poses around \a reference, moved in the target frame about the reference-placed source
  * centroid, as the optimiser's parameters are. */
 class Perturbation {
@@ -164,7 +172,7 @@ writeGrid(const std::string& prefix, Registration& reg, const Perturbation& pert
   if (!openCsv(prefix + "_xy.csv", xy))
     return false;
   const double step = sampling.step;
-  const int n = static_cast<int>(std::floor(sampling.extent / step + 1e-9));
+  const int n = stepsEachSide(sampling.extent, step);
   xy << "dx_m,dy_m,mi\n";
   for (int i = -n; i <= n; ++i) {
     for (int j = -n; j <= n; ++j)
@@ -186,7 +194,7 @@ writeHeadingSweep(const std::string& prefix, Registration& reg, const Perturbati
   if (!openCsv(prefix + "_yaw.csv", yaw))
     return false;
   const double step = sampling.yaw_step;
-  const int m = static_cast<int>(std::floor(sampling.yaw_extent / step + 1e-9));
+  const int m = stepsEachSide(sampling.yaw_extent, step);
   yaw << "dyaw_deg,mi,gicp\n";
   for (int k = -m; k <= m; ++k) {
     const Eigen::Matrix4d pose = perturbed(0, 0, k * step);
