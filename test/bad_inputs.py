@@ -15,9 +15,8 @@ os.makedirs(work, exist_ok=True)
 scan0 = open(os.path.join(data, "kitti/sequences/00/velodyne/000000.bin"), "rb").read()
 scan9 = open(os.path.join(data, "kitti/sequences/00/velodyne/000009.bin"), "rb").read()
 reference = os.path.join(data, "kitti/reference_00_000009_to_000000.txt")
-# Memory bounds stated in the README: 300 MB for inputs of KITTI size or less, and about
-# 110 bytes per input point beyond that (two 10-million-point clouds: 2.1 GB measured, of
-# which about 1 GB are the app's own input and output clouds).
+# Memory bounds, with what they held when last measured: docs/hardening.md, "Bounds that
+# hold for any input".
 SMALL_BOUND_KB = 300 * 1024
 HUGE_BOUND_KB = 2400 * 1024
 
