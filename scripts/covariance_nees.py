@@ -5,9 +5,12 @@ aligned with the defaults from the identity guess, and the normalised squared er
 e^T inv(Sigma) e of every converged result is printed (its mean is 6 for a consistent
 6-DoF covariance). e is the left increment [t, rotation vector] that carries the result onto
 the known transform, the order and frame of getCovariance(). With -noise SIGMA, Gaussian
-noise of SIGMA (m) is added to every coordinate before the split.
+noise of SIGMA (m) is added to every coordinate before the split. With -split random, each
+point goes to either half by a coin toss instead of alternately, which rules out the
+scanner's order of points as a cause of a too-small covariance.
 
 Usage: covariance_nees.py BUILD_DIR SCAN.bin... [-pairs_per_scan K] [-seed S] [-noise SIGMA]
+                          [-split alternate|random]
 """
 import sys
 
@@ -29,7 +32,7 @@ def rotation(axis, angle):
 
 
 def main(argv):
-    args, scans, k, seed, noise = argv[2:], [], 2, 1, 0.0
+    args, scans, k, seed, noise, split = argv[2:], [], 2, 1, 0.0, "alternate"
     i = 0
     while i < len(args):
         if args[i] == "-pairs_per_scan":
@@ -38,6 +41,10 @@ def main(argv):
             seed, i = int(args[i + 1]), i + 2
         elif args[i] == "-noise":
             noise, i = float(args[i + 1]), i + 2
+        elif args[i] == "-split":
+            split, i = args[i + 1], i + 2
+            if split not in ("alternate", "random"):
+                sys.exit("covariance_nees.py: -split takes alternate or random, not '%s'" % split)
         else:
             scans.append(args[i])
             i += 1
@@ -51,7 +58,11 @@ def main(argv):
         points = points[np.isfinite(points).all(1) & (np.abs(points).sum(1) > 0)]
         if noise > 0:
             points = points + rng.normal(scale=noise, size=points.shape)
-        target, half = points[0::2], points[1::2]
+        if split == "random":
+            heads = rng.random(len(points)) < 0.5
+            target, half = points[heads], points[~heads]
+        else:
+            target, half = points[0::2], points[1::2]
         for _ in range(k):
             # A known motion: 0.2-1 m horizontally, up to 5 deg about a random axis.
             truth = np.eye(4)
