@@ -2,7 +2,8 @@
 # End-to-end: scripts/kitti_scan_to_map.py on the bundled scans (sequence 00, frames 0 and 9:
 # scan 9 against a "map" of scan 0), then pcl_mi_compare -list on what it wrote. Asserts that
 # the map is scan 0 in its own frame, that the list's reference is the bundled one, that a
-# frame the sequence lacks is refused, and that MI-VARZ aligns the scan within 0.1 m / 0.5 deg.
+# frame the sequence lacks is refused, that MI-VARZ aligns the scan within 0.1 m / 0.5 deg,
+# and that with a kept map the same case gives the same pose, timed as kept or prepared.
 # Usage: run_scan_to_map_test.sh SCRIPT COMPARE_BINARY DATA_DIR WORK_DIR
 set -euo pipefail
 script=$1 compare=$2 data=$3 work=$4
@@ -42,6 +43,8 @@ printf '%s\n%s\n' "$row" "$row" > "$work/shared/list.txt"
 "$compare" -list "$work/shared/list.txt" -methods mi-varz -directions forward -reuse_target \
   -csv "$work/reused.csv" | tee "$work/reused.txt"
 grep -q "MI stages, median per alignment" "$work/reused.txt"
+# The first row prepared the map, the second kept it: one of each in the scan-to-map table.
+grep -Eq "^mi-varz +1 +[0-9.]+ +1 +[0-9.]+$" "$work/reused.txt"
 /usr/bin/python3 - "$work/map.csv" "$work/reused.csv" <<'PY'
 import csv, sys
 fresh = list(csv.DictReader(open(sys.argv[1])))

@@ -164,7 +164,8 @@ runMethod(const std::string& chain,
     filter.filter(*input);
   }
   reg->setInputSource(input);
-  if (!kept || kept->target != reference_cloud.get())
+  const bool new_target = !kept || kept->target != reference_cloud.get();
+  if (new_target)
     reg->setInputTarget(reference_cloud);
   if (kept)
     kept->target = reference_cloud.get();
@@ -181,6 +182,8 @@ runMethod(const std::string& chain,
   o.travel_error = travelFrameError(o.estimate, pair.reference);
   o.rotation_error = e.rotation_deg;
   o.converged = reg->hasConverged();
+  o.prepared_target = kept && new_target;
+  o.kept_target = kept && !new_target;
   o.evaluations = previous.evaluations;
   if (auto* mi = dynamic_cast<pcl::MutualInformationRegistration<pcl::PointXYZ>*>(reg)) {
     o.evaluations = mi->getNumberOfEvaluations();

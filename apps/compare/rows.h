@@ -49,6 +49,10 @@ struct Row {
   double evidence[10] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
+  /** With -reuse_target, whether this MI run prepared a target it had not kept (the first
+   * against each map) or aligned against one it kept; neither otherwise. Not written to
+   * the CSV. */
+  bool prepared_target = false, kept_target = false;
 };
 
 /** The CSV header; \a with_poses adds the travel-frame errors and both transforms. */

@@ -70,6 +70,41 @@ methodColumnWidth(const std::vector<std::string>& methods)
   return width;
 }
 
+/** Scan to map (-reuse_target): per method, the median time of the alignments against a
+ * target it kept apart from those that prepared their target (the first against each map),
+ * which the runtime tables mix. Nothing for rows without the distinction (other methods,
+ * runs without -reuse_target, rows read from a CSV). */
+void
+printKeptTargets(const std::vector<Row>& rows, const std::vector<std::string>& methods)
+{
+  const int name_width = methodColumnWidth(methods);
+  bool header = false;
+  for (const auto& m : methods) {
+    std::vector<double> kept, prepared;
+    for (const auto& r : rows)
+      if (r.method == m && (r.kept_target || r.prepared_target))
+        (r.kept_target ? kept : prepared).push_back(1000.0 * r.seconds);
+    if (kept.empty() && prepared.empty())
+      continue;
+    if (!header) {
+      std::printf("\nScan to map (-reuse_target): median per alignment [ms]\n"
+                  "%-*s %12s %10s %16s %10s\n",
+                  name_width, "method", "kept target", "median", "prepared target", "median");
+      header = true;
+    }
+    const auto cell = [](const std::vector<double>& v) {
+      char text[32] = "-";
+      if (!v.empty())
+        std::snprintf(text, sizeof(text), "%.2f", median(v));
+      return std::string(text);
+    };
+    std::printf("%-*s %12zu %10s %16zu %10s\n", name_width, m.c_str(), kept.size(),
+                cell(kept).c_str(), prepared.size(), cell(prepared).c_str());
+  }
+  if (header)
+    std::printf("(the first alignment against each target prepares it; the others keep it)\n");
+}
+
 /** Where MI's time goes: per method, the median over its rows of each stage of
  * pcl_mi::AlignmentResult::stages (the search's levels summed), and of what lies outside
  * the engine (PCL's align() and the output cloud, the target's derived resolution). Rows
@@ -278,6 +313,7 @@ printTables(const std::vector<Row>& rows,
   std::printf("(errors in m and deg; vs_first: median time relative to %s)\n",
               methods.front().c_str());
   printStages(rows, methods);
+  printKeptTargets(rows, methods);
   printVerdict(rows, methods, bound);
   printBias(rows, methods, bound);
 }
