@@ -78,6 +78,12 @@ void
 printKeptTargets(const std::vector<Row>& rows, const std::vector<std::string>& methods)
 {
   const int name_width = methodColumnWidth(methods);
+  const auto cell = [](const std::vector<double>& v) {
+    char text[32] = "-";
+    if (!v.empty())
+      std::snprintf(text, sizeof(text), "%.2f", median(v));
+    return std::string(text);
+  };
   bool header = false;
   for (const auto& m : methods) {
     std::vector<double> kept, prepared;
@@ -92,12 +98,6 @@ printKeptTargets(const std::vector<Row>& rows, const std::vector<std::string>& m
                   name_width, "method", "kept target", "median", "prepared target", "median");
       header = true;
     }
-    const auto cell = [](const std::vector<double>& v) {
-      char text[32] = "-";
-      if (!v.empty())
-        std::snprintf(text, sizeof(text), "%.2f", median(v));
-      return std::string(text);
-    };
     std::printf("%-*s %12zu %10s %16zu %10s\n", name_width, m.c_str(), kept.size(),
                 cell(kept).c_str(), prepared.size(), cell(prepared).c_str());
   }
