@@ -430,8 +430,7 @@ alignAll(const Options& o,
         const Row& middle = runs[static_cast<std::size_t>(o.repeat / 2)];
         row.seconds = middle.seconds;
         row.stages = middle.stages;
-        row.prepared_target = middle.prepared_target;
-        row.kept_target = middle.kept_target;
+        row.target_reuse = middle.target_reuse;
       }
       row.sequence = p.sequence;
       row.target = p.target_frame;

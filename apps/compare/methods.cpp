@@ -182,8 +182,8 @@ runMethod(const std::string& chain,
   o.travel_error = travelFrameError(o.estimate, pair.reference);
   o.rotation_error = e.rotation_deg;
   o.converged = reg->hasConverged();
-  o.prepared_target = kept && new_target;
-  o.kept_target = kept && !new_target;
+  if (kept)
+    o.target_reuse = new_target ? Row::TargetReuse::kPrepared : Row::TargetReuse::kKept;
   o.evaluations = previous.evaluations;
   if (auto* mi = dynamic_cast<pcl::MutualInformationRegistration<pcl::PointXYZ>*>(reg)) {
     o.evaluations = mi->getNumberOfEvaluations();

@@ -50,9 +50,9 @@ struct Row {
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
   /** With -reuse_target, whether this MI run prepared a target it had not kept (the first
-   * against each map) or aligned against one it kept; neither otherwise. Not written to
-   * the CSV. */
-  bool prepared_target = false, kept_target = false;
+   * against each map) or aligned against one it kept; kNone otherwise. Not written to the
+   * CSV. */
+  enum class TargetReuse { kNone, kPrepared, kKept } target_reuse = TargetReuse::kNone;
 };
 
 /** The CSV header; \a with_poses adds the travel-frame errors and both transforms. */

@@ -88,8 +88,9 @@ printKeptTargets(const std::vector<Row>& rows, const std::vector<std::string>& m
   for (const auto& m : methods) {
     std::vector<double> kept, prepared;
     for (const auto& r : rows)
-      if (r.method == m && (r.kept_target || r.prepared_target))
-        (r.kept_target ? kept : prepared).push_back(1000.0 * r.seconds);
+      if (r.method == m && r.target_reuse != Row::TargetReuse::kNone)
+        (r.target_reuse == Row::TargetReuse::kKept ? kept : prepared)
+            .push_back(1000.0 * r.seconds);
     if (kept.empty() && prepared.empty())
       continue;
     if (!header) {
