@@ -7,10 +7,12 @@ e^T inv(Sigma) e of every converged result is printed (its mean is 6 for a consi
 the known transform, the order and frame of getCovariance(). With -noise SIGMA, Gaussian
 noise of SIGMA (m) is added to every coordinate before the split. With -split random, each
 point goes to either half by a coin toss instead of alternately, which rules out the
-scanner's order of points as a cause of a too-small covariance.
+scanner's order of points as a cause of a too-small covariance. With -keep_every N, only every
+N-th point of each scan is kept before the split, as a sparser sensor or a front end's
+decimation would leave it.
 
 Usage: covariance_nees.py BUILD_DIR SCAN.bin... [-pairs_per_scan K] [-seed S] [-noise SIGMA]
-                          [-split alternate|random]
+                          [-split alternate|random] [-keep_every N]
 """
 import sys
 
@@ -32,7 +34,7 @@ def rotation(axis, angle):
 
 
 def main(argv):
-    args, scans, k, seed, noise, split = argv[2:], [], 2, 1, 0.0, "alternate"
+    args, scans, k, seed, noise, split, keep = argv[2:], [], 2, 1, 0.0, "alternate", 1
     i = 0
     while i < len(args):
         if args[i] == "-pairs_per_scan":
@@ -41,6 +43,10 @@ def main(argv):
             seed, i = int(args[i + 1]), i + 2
         elif args[i] == "-noise":
             noise, i = float(args[i + 1]), i + 2
+        elif args[i] == "-keep_every":
+            keep, i = int(args[i + 1]), i + 2
+            if keep < 1:
+                sys.exit("covariance_nees.py: -keep_every takes a count of 1 or more, not %d" % keep)
         elif args[i] == "-split":
             split, i = args[i + 1], i + 2
             if split not in ("alternate", "random"):
@@ -55,7 +61,7 @@ def main(argv):
     nees, normalised, errors, rows = [], [], [], 0
     for path in scans:
         points = np.fromfile(path, dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
-        points = points[np.isfinite(points).all(1) & (np.abs(points).sum(1) > 0)]
+        points = points[np.isfinite(points).all(1) & (np.abs(points).sum(1) > 0)][::keep]
         if noise > 0:
             points = points + rng.normal(scale=noise, size=points.shape)
         if split == "random":

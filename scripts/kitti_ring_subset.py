@@ -8,7 +8,7 @@ scan, K = 4 a 16-ring one (about 1.7 deg between rings, close to a VLP-16's 2 de
 
 usage: kitti_ring_subset.py KITTI_ROOT K OUT_DIR [--sequences 00,01,02,05,08]
                             [--distance 1,10] [--max-yaw 20] [--poses semantic|gt]
-                            [--scale S] [--fov DEG] [--voxel M]
+                            [--scale S] [--fov DEG] [--voxel M] [--keep-every N]
                             [--noise SIGMA] [--seed N]
 
 --scale S multiplies every coordinate and the reference translations by S (e.g. 1000 for
@@ -19,6 +19,8 @@ forward-looking sensor with that horizontal field of view would see them.
 --voxel M keeps the first point of each cube of M metres (before scaling), as a pipeline that
 thins its scans with a voxel filter hands them over: about as many points near the sensor as
 far from it.
+--keep-every N keeps every N-th point of what is left, as a front end that decimates its scans
+(e.g. a LIO's point filter) hands them over: sparser everywhere, near and far alike.
 --noise SIGMA adds Gaussian noise of SIGMA metres (before scaling) to each coordinate of every
 point, as a noisier sensor would measure it; --seed N fixes the draws (default 1).
 
@@ -61,6 +63,7 @@ def main():
     parser.add_argument("--scale", type=float, default=1.0)
     parser.add_argument("--fov", type=float, default=360.0)
     parser.add_argument("--voxel", type=float, default=0.0)
+    parser.add_argument("--keep-every", type=int, default=1)
     parser.add_argument("--noise", type=float, default=0.0)
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
@@ -70,6 +73,8 @@ def main():
         sys.exit("kitti_ring_subset: --scale must be positive and finite")
     if not 0 < args.fov <= 360:
         sys.exit("kitti_ring_subset: --fov must be in (0, 360]")
+    if args.keep_every < 1:
+        sys.exit("kitti_ring_subset: --keep-every must be >= 1")
     if not (args.noise >= 0 and math.isfinite(args.noise)):
         sys.exit("kitti_ring_subset: --noise must be 0 or more and finite")
     random = np.random.default_rng(args.seed)
@@ -90,6 +95,7 @@ def main():
                 cells = np.floor(subset[:, :3] / args.voxel).astype(np.int64)
                 _, first = np.unique(cells, axis=0, return_index=True)
                 subset = subset[np.sort(first)]
+            subset = subset[::args.keep_every]
             if args.noise > 0:
                 subset[:, :3] += random.normal(0.0, args.noise, (len(subset), 3)).astype(np.float32)
             if args.scale != 1.0:

@@ -4,7 +4,8 @@
 # are kept, that the list holds the two bundled pairs with their reference poses, and that
 # MI-VARZ aligns all four alignments within 0.15 m / 0.5 deg, that --scale scales the
 # points and the reference translations only, that --fov cuts to the field of view, and
-# that --noise adds noise of the deviation asked, reproducibly.
+# that --noise adds noise of the deviation asked, reproducibly, and that --keep-every keeps
+# every N-th point.
 # Usage: run_ring_subset_test.sh SCRIPT COMPARE_BINARY DATA_DIR WORK_DIR
 set -euo pipefail
 script=$1 compare=$2 data=$3 work=$4
@@ -60,4 +61,14 @@ d = (noisy[:, :3] - clean[:, :3]).astype(np.float64)
 assert len(noisy) == len(clean) and np.array_equal(noisy[:, 3], clean[:, 3])
 assert abs(d.std() - 0.1) < 0.002 and abs(d.mean()) < 0.002, (d.std(), d.mean())
 print(f"--noise 0.1: deviation {d.std():.4f} m, mean {d.mean():+.5f} m, intensities unchanged")
+PY
+# --keep-every N keeps points 0, N, 2N, ... of the scan, unchanged.
+"$script" "$data/kitti" 1 "$work/every" --sequences 00 --keep-every 9 > /dev/null
+/usr/bin/python3 - "$work/all" "$work/every" <<'PY'
+import sys
+import numpy as np
+full = np.fromfile(f"{sys.argv[1]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+kept = np.fromfile(f"{sys.argv[2]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+assert np.array_equal(kept, full[::9]), (len(kept), len(full))
+print(f"--keep-every 9: {len(kept)} of {len(full)} points kept, every 9th")
 PY
