@@ -282,57 +282,55 @@ probeAxis(const InlierProbe& probe, int axis, double step, double turn)
                   : probe.lostTurningEitherWay(axis - 3, turn);
 }
 
-/** Observability and covariance from the point-to-plane information of \a at; the
- * covariance in the input frame (\a target_axes, \a target_centroid), the directions still
- * in the local frame. */
-void
-planeInformation(const PoseEvidence& at,
-                 double radius,
-                 const Eigen::Vector3d& target_centroid,
-                 const Eigen::Matrix3d& target_axes,
-                 Verification& v)
+/** [omega, delta] -> [delta, omega]: the evidence's order to the covariance's. */
+Matrix6d
+covarianceOrder()
 {
-  // [omega, delta] -> [delta, omega], rotations scaled to metres at the RMS radius.
   Matrix6d order = Matrix6d::Zero();
   order.block<3, 3>(0, 3).setIdentity();
   order.block<3, 3>(3, 0).setIdentity();
-  const Matrix6d h = order * at.plane_information * order.transpose();
+  return order;
+}
+
+/** Per parameter of [delta, omega], the scale that makes one unit of rotation move a point
+ * at \a radius by one unit of length. */
+Eigen::Matrix<double, 6, 1>
+rotationScale(double radius)
+{
   Eigen::Matrix<double, 6, 1> scale;
   scale << 1.0, 1.0, 1.0, 1.0 / radius, 1.0 / radius, 1.0 / radius;
-  const Matrix6d scaled = scale.asDiagonal() * h * scale.asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled);
+  return scale;
+}
+
+/** The point-to-plane information of \a at in [delta, omega], rotations scaled by
+ * \a radius, decomposed. */
+Eigen::SelfAdjointEigenSolver<Matrix6d>
+scaledInformation(const PoseEvidence& at, double radius)
+{
+  const Matrix6d order = covarianceOrder();
+  const Eigen::Matrix<double, 6, 1> scale = rotationScale(radius);
+  const Matrix6d h = order * at.plane_information * order.transpose();
+  return Eigen::SelfAdjointEigenSolver<Matrix6d>(scale.asDiagonal() * h * scale.asDiagonal());
+}
+
+/** The observability of \a at, rotations scaled by \a radius; directions in the local
+ * frame. */
+void
+observabilityOf(const PoseEvidence& at, double radius, Verification& v)
+{
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver = scaledInformation(at, radius);
   const double largest = solver.eigenvalues()[5];
   if (!(largest > 0.0))
     return;
   v.observability = (solver.eigenvalues() / largest).cwiseMax(0.0);
   v.observability_directions = solver.eigenvectors();
-  if (at.inliers <= 6 || !(v.observability[0] > 0.0))
-    return;
-  // Residual variance across the surfaces, then back from the scaled increments; the
-  // increment about the target local origin becomes one about the input frame's origin:
-  // delta_origin = delta + c x omega.
-  const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
-  const Matrix6d scaled_inverse = solver.eigenvectors() *
-                                  solver.eigenvalues().cwiseInverse().asDiagonal() *
-                                  solver.eigenvectors().transpose();
-  // The result is not exactly the point-to-plane optimum (the refinement weighs distributions,
-  // not planes, and stops early): the Gauss-Newton step to it is an error of its own, which
-  // the covariance takes in as its outer product.
-  const Eigen::Matrix<double, 6, 1> step =
-      scaled_inverse * (scale.asDiagonal() * (order * at.plane_gradient));
-  const Matrix6d scaled_covariance = variance * scaled_inverse + step * step.transpose();
-  Matrix6d to_input = Matrix6d::Zero(); // [delta, omega] turn alike
-  to_input.block<3, 3>(0, 0) = target_axes;
-  to_input.block<3, 3>(3, 3) = target_axes;
-  const Matrix6d local =
-      to_input * scale.asDiagonal() * scaled_covariance * scale.asDiagonal() * to_input.transpose();
-  Matrix6d to_origin = Matrix6d::Identity();
-  Eigen::Matrix3d cross;
-  cross << 0.0, -target_centroid.z(), target_centroid.y(), //
-      target_centroid.z(), 0.0, -target_centroid.x(),      //
-      -target_centroid.y(), target_centroid.x(), 0.0;
-  to_origin.block<3, 3>(0, 3) = cross;
-  v.covariance = to_origin * local * to_origin.transpose();
+}
+
+/** The radius at which verifyPose() scales rotations for \a source. */
+double
+rotationRadius(const SourceSamples& source, double resolution)
+{
+  return std::max(rmsRadius(source), resolution);
 }
 
 /** The confidence the evidence in \a v gives. */
@@ -369,6 +367,47 @@ calibratedLogit(double z)
   return kCalibratedLogits[i] + t * (upper_value - kCalibratedLogits[i]);
 }
 
+Eigen::Matrix<double, 6, 6>
+planeCovariance(const PoseEvidence& at,
+                const SourceSamples& source,
+                double resolution,
+                const Eigen::Vector3d& target_centroid,
+                const Eigen::Matrix3d& target_axes)
+{
+  const double radius = rotationRadius(source, resolution);
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver = scaledInformation(at, radius);
+  const double largest = solver.eigenvalues()[5];
+  if (!(largest > 0.0) || at.inliers <= 6 || !(solver.eigenvalues()[0] / largest > 0.0))
+    return Matrix6d::Zero();
+  const Matrix6d order = covarianceOrder();
+  const Eigen::Matrix<double, 6, 1> scale = rotationScale(radius);
+  // Residual variance across the surfaces, then back from the scaled increments; the
+  // increment about the target local origin becomes one about the input frame's origin:
+  // delta_origin = delta + c x omega.
+  const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
+  const Matrix6d scaled_inverse = solver.eigenvectors() *
+                                  solver.eigenvalues().cwiseInverse().asDiagonal() *
+                                  solver.eigenvectors().transpose();
+  // The result is not exactly the point-to-plane optimum (the refinement weighs distributions,
+  // not planes, and stops early): the Gauss-Newton step to it is an error of its own, which
+  // the covariance takes in as its outer product.
+  const Eigen::Matrix<double, 6, 1> step =
+      scaled_inverse * (scale.asDiagonal() * (order * at.plane_gradient));
+  const Matrix6d scaled_covariance = variance * scaled_inverse + step * step.transpose();
+  Matrix6d to_input = Matrix6d::Zero(); // [delta, omega] turn alike
+  to_input.block<3, 3>(0, 0) = target_axes;
+  to_input.block<3, 3>(3, 3) = target_axes;
+  const Matrix6d local =
+      to_input * scale.asDiagonal() * scaled_covariance * scale.asDiagonal() * to_input.transpose();
+  Matrix6d to_origin = Matrix6d::Identity();
+  Eigen::Matrix3d cross;
+  cross << 0.0, -target_centroid.z(), target_centroid.y(), //
+      target_centroid.z(), 0.0, -target_centroid.x(),      //
+      -target_centroid.y(), target_centroid.x(), 0.0;
+  to_origin.block<3, 3>(0, 3) = cross;
+  return to_origin * local * to_origin.transpose();
+}
+
 Verification
 verifyPose(const TargetDistributions& target,
            const SourceSamples& source,
@@ -386,7 +425,7 @@ verifyPose(const TargetDistributions& target,
   // The evidence at the result and the contrast probes are independent tasks. Every count
   // and sum is its own task's, so the figures do not depend on the threads.
   PoseEvidence at;
-  const double radius = std::max(rmsRadius(source), resolution);
+  const double radius = rotationRadius(source, resolution);
   const InlierProbe probe(target, source, rotation, translation);
   double contrast[6] = {0, 0, 0, 0, 0, 0};
   // The full gather is the longest task: it goes first, and the six axes' probes fill the
@@ -410,7 +449,8 @@ verifyPose(const TargetDistributions& target,
   const double floor_entropy = std::min(h.source, h.target);
   v.normalized_mi = floor_entropy > 0.0 ? h.mutualInformation() / floor_entropy : 0.0;
 
-  planeInformation(at, radius, target_centroid, target_axes, v);
+  observabilityOf(at, radius, v);
+  v.covariance = planeCovariance(at, source, resolution, target_centroid, target_axes);
   // The two least observable directions ([t, omega * radius]), moved either way so far that
   // the samples move one voxel (root mean square). A turn scaled at the RMS radius moves a
   // narrow view's samples much less than that about its axis of view, which left such turns

@@ -8,6 +8,7 @@
 
 #include "features/source_samples.h"
 #include "refine/refinement.h"
+#include "verify/pose_evidence.h"
 
 #include <pcl_mi/types.h>
 
@@ -58,6 +59,18 @@ enum class SensorPlacement {
   kSamePlace,        ///< within a voxel, their vertical axes tilted apart
   kSamePlaceAndAxis, ///< within a voxel, tilted apart less than the probes' tilt; any heading
 };
+
+/** \brief The covariance verifyPose() reports for the evidence \a at (gathered with the
+ * point-to-plane terms) of the samples \a source on a grid of voxel size \a resolution:
+ * sigma^2 H^-1 plus the outer product of the Gauss-Newton step to the point-to-plane optimum,
+ * in the input frame (\a target_centroid, \a target_axes as for verifyPose()). Zero where
+ * the evidence holds 6 inliers or fewer, or leaves a direction without information. */
+Eigen::Matrix<double, 6, 6>
+planeCovariance(const PoseEvidence& at,
+                const SourceSamples& source,
+                double resolution,
+                const Eigen::Vector3d& target_centroid,
+                const Eigen::Matrix3d& target_axes);
 
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
