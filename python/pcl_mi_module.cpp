@@ -243,7 +243,14 @@ public:
     r.reason = pcl_mi::notConvergedCause(
         result, settings_.max_iterations,
         "max_iterations=" + std::to_string(settings_.max_iterations));
-    r.covariance = toArray(Eigen::Matrix<double, 6, 6>(result.verification.covariance));
+    // Widened where the result depends on where the cells cut the surfaces: a refinement
+    // more, after the alignment's time (RegistrationCore::covarianceScale()).
+    Eigen::Matrix<double, 6, 6> covariance = result.verification.covariance;
+    if (!covariance.isZero()) {
+      py::gil_scoped_release release;
+      covariance *= core_.covarianceScale();
+    }
+    r.covariance = toArray(covariance);
     r.mutual_information = result.mutual_information;
     r.iterations = result.iterations;
     r.evaluations = result.evaluations;

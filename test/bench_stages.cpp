@@ -24,6 +24,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <iostream>
 #include <memory>
@@ -229,6 +230,33 @@ BM_Verification(benchmark::State& state)
         problem.parameters().num_threads));
 }
 BENCHMARK(BM_Verification)->Unit(benchmark::kMillisecond);
+
+/** The first covarianceScale() after an alignment, as getCovariance() asks for it: the
+ * target's cubes and the source's samples half a cell further on, a refinement and the
+ * evidence there. Against a new target each time (/0), or a kept one whose shifted cubes
+ * the first call built (/1); only the call is timed. */
+void
+BM_CovarianceScale(benchmark::State& state)
+{
+  const Pair& p = pair();
+  const bool kept_target = state.range(0) == 1;
+  pcl_mi::RegistrationCore core;
+  core.setTarget(p.target_points);
+  core.setSource(p.source_points);
+  core.align(Eigen::Matrix4d::Identity());
+  core.covarianceScale();
+  for (auto _ : state) {
+    if (!kept_target)
+      core.setTarget(p.target_points);
+    core.setSource(p.source_points);
+    core.align(Eigen::Matrix4d::Identity());
+    const auto start = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(core.covarianceScale());
+    state.SetIterationTime(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+}
+BENCHMARK(BM_CovarianceScale)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 /** Hands both clouds of \a p to \a reg as PCL clouds and aligns them. */
 void

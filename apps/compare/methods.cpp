@@ -190,8 +190,10 @@ runMethod(const std::string& chain,
     o.stages = mi->getLastResult().stages;
     const pcl_mi::Verification& v = mi->getVerification();
     o.confidence = v.confidence;
+    // After the time is taken: the first getCovariance() refines the result once more.
+    const Eigen::Matrix<double, 6, 6> covariance = mi->getCovariance();
     for (int i = 0; i < 6; ++i)
-      o.sigma[i] = std::sqrt(v.covariance(i, i)) * (i < 3 ? 1.0 : 180.0 / M_PI);
+      o.sigma[i] = std::sqrt(covariance(i, i)) * (i < 3 ? 1.0 : 180.0 / M_PI);
     const int weaker = v.free_direction_contrast[1] < v.free_direction_contrast[0] ? 1 : 0;
     const double evidence[10] = {mi->getLastResult().search_converged ? 1.0 : 0.0,
                                  static_cast<double>(v.inliers),

@@ -556,11 +556,14 @@ public:
 
   /** \brief Covariance of the last result's error as a left increment [tx, ty, tz, roll,
    * pitch, yaw] (m, rad) in the target frame, rotations about its origin: the true pose is
-   * about exp(increment) * getFinalTransformation(). Zero when the result is degenerate. */
+   * about exp(increment) * getFinalTransformation(). Zero when the result is degenerate.
+   * It is getVerification().covariance times core().covarianceScale(), which the first
+   * call after an align() computes (a refinement on cells moved by half a cell). */
   Eigen::Matrix<double, 6, 6>
   getCovariance() const
   {
-    return result_.verification.covariance;
+    const Eigen::Matrix<double, 6, 6>& covariance = result_.verification.covariance;
+    return covariance.isZero() ? covariance : core_.covarianceScale() * covariance;
   }
 
   /** \brief The evidence behind the verdict: inliers, contrast, observability per direction

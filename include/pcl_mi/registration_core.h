@@ -95,6 +95,16 @@ public:
   AlignmentResult
   align(const Eigen::Matrix4d& guess, int max_iterations = kDefaultMaxIterations);
 
+  /** \brief The factor, 1 or more, by which the last align()'s verification.covariance is
+   * too small where its result depends on where the cells that summarise the clouds cut
+   * their surfaces: the result is refined again on cells moved by half a cell, and the move
+   * is weighed against both covariances (docs/method.md, "The verdict", covariance). Computed
+   * on the first call after an align() (about a refinement and a preparation of the target's
+   * cubes), then kept. 1 where that covariance is zero, and where new clouds have been
+   * prepared since (by evaluate()), which leaves nothing to refine it on. */
+  double
+  covarianceScale() const;
+
   /** \brief Mutual information (nats) at \a pose (source to target), for cost surfaces and
    * tests. Returns a negative value and sets \a error if the inputs are unusable; returns 0
    * where the clouds do not overlap at \a pose. */

@@ -213,7 +213,10 @@ struct Verification {
    * does not pass, 1 where the searches found none (docs/method.md, "Shifted optima"). */
   double lead = std::numeric_limits<double>::quiet_NaN();
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
-   * the inliers' residuals; zero for a result with a free direction or too few inliers. */
+   * the inliers' residuals; zero for a result with a free direction or too few inliers. It
+   * treats the samples as independent; RegistrationCore::covarianceScale() says how much
+   * wider it is where the result depends on where the cells cut the surfaces, and
+   * getCovariance() and Python's covariance include that. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> covariance =
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Zero();
 };

@@ -224,6 +224,7 @@ PreparedProblem::prepare(std::string& error)
     levels_.resize(static_cast<std::size_t>(num_levels));
     distributions_.reset();
     coarser_distributions_.clear();
+    shifted_distributions_.reset();
     target_axes_.setIdentity();
   }
 
@@ -243,6 +244,7 @@ PreparedProblem::prepare(std::string& error)
 
   target_dirty_ = false;
   source_dirty_ = false;
+  ++preparations_;
   // New levels need the samples; new samples need handing to the existing backends.
   for (std::size_t l = 0; l < levels_.size(); ++l) {
     Level& level = levels_[l];
@@ -440,6 +442,41 @@ PreparedProblem::distributions(int stage)
                           &target_.box),
         kRefinementMinimumPoints);
   return *coarser_distributions_[i];
+}
+
+namespace {
+
+/** \a box with its lower corner moved by half of \a cell along every axis: cells of that
+ * size from there cut the points half a cell further on. */
+Box
+halfCellShifted(Box box, double cell)
+{
+  box.min -= Eigen::Vector3f::Constant(static_cast<float>(0.5 * cell));
+  return box;
+}
+
+} // namespace
+
+const TargetDistributions&
+PreparedProblem::shiftedDistributions()
+{
+  if (!shifted_distributions_) {
+    const double cell = parameters_.effectiveRefinementResolution();
+    const Box box = halfCellShifted(target_.box, cell);
+    const SourceSamples cubes = makeSourceSamples(target_.points, cell, &box);
+    shifted_distributions_ = makeDistributions(cubes, finestRefinementMinimumPoints(cubes));
+  }
+  return *shifted_distributions_;
+}
+
+SourceSamples
+PreparedProblem::shiftedRefinementSamples() const
+{
+  const SourceSamples& samples = refinementSamples();
+  if (!(samples.cell_size > 0.0))
+    return samples;
+  const Box box = halfCellShifted(source_.box, samples.cell_size);
+  return makeSourceSamples(source_.points, samples.cell_size, &box);
 }
 
 std::unique_ptr<TargetDistributions>

@@ -185,6 +185,22 @@ public:
   {
     return *source_levels_.front();
   }
+  /** \brief distributions() with its cubes moved half a cube along every axis: built on
+   * first use, kept with the target. Where the cells cut the surfaces moves a result by
+   * about its error (docs/method.md, "The verdict", covariance). */
+  const TargetDistributions&
+  shiftedDistributions();
+  /** \brief refinementSamples() with its cells moved half a cell along every axis (the
+   * samples themselves where they are the points). */
+  SourceSamples
+  shiftedRefinementSamples() const;
+  /** \brief How many times prepare() has built from new clouds: what a result's
+   * distributions and samples were, changes with it. */
+  std::uint64_t
+  preparations() const
+  {
+    return preparations_;
+  }
   /** \brief A refinement stage's target: distributions on cubes 2^stage times the
    * refinement's (stage 0: distributions()); coarser stages are built on first use. */
   const TargetDistributions&
@@ -289,6 +305,9 @@ private:
   std::unique_ptr<TargetDistributions> distributions_;
   /** Coarser refinement stages' distributions (stage 1 first), built on first use. */
   std::vector<std::unique_ptr<TargetDistributions>> coarser_distributions_;
+  /** shiftedDistributions(), built on first use. */
+  std::unique_ptr<TargetDistributions> shifted_distributions_;
+  std::uint64_t preparations_ = 0;
   std::optional<Eigen::Vector3d> source_up_, target_up_;
   Eigen::Matrix3d target_axes_ = Eigen::Matrix3d::Identity();
   BackendFactory backends_;

@@ -9,6 +9,7 @@
 #include "engine/input_checks.h"
 #include "engine/leveled_guess.h"
 #include "engine/mutual_information_costs.h"
+#include "engine/phase_spread.h"
 #include "engine/prepared_problem.h"
 #include "engine/search_space.h"
 #include "engine/shifted_optimum.h"
@@ -173,6 +174,14 @@ struct FoundOptimum {
 struct RegistrationCore::Impl {
   core::PreparedProblem problem;
   JointHistogram scratch;
+  /** The last align()'s result, for covarianceScale(): its pose and covariance, the
+   * preparation they were found on, and the scale once computed. */
+  struct LastResult {
+    Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+    Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+    std::uint64_t preparation = 0;
+    std::optional<double> covariance_scale;
+  } last;
   /** For the reverse search: align() stops after the search, with its best optimum and
    * the runners-up in search_optima. */
   bool stop_after_search = false;
@@ -313,6 +322,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
 {
   AlignmentResult result;
   result.transformation = guess;
+  impl_->last = {};
   const std::string guess_error = core::rigidTransformError(guess);
   if (!guess_error.empty()) {
     result.error = "the initial guess " + guess_error;
@@ -404,7 +414,22 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
                                  finest_normalized_mi);
   if (narrow_view)
     lookAcross(problem, space, impl_->scratch, result, finest_normalized_mi);
+  impl_->last.pose = result.transformation;
+  impl_->last.covariance = result.verification.covariance;
+  impl_->last.preparation = problem.preparations();
   return result;
+}
+
+double
+RegistrationCore::covarianceScale() const
+{
+  Impl::LastResult& last = impl_->last;
+  if (!last.covariance_scale)
+    last.covariance_scale =
+        last.preparation != impl_->problem.preparations()
+            ? 1.0
+            : core::phaseSpreadScale(impl_->problem, last.pose, last.covariance);
+  return *last.covariance_scale;
 }
 
 
