@@ -432,7 +432,6 @@ RegistrationCore::covarianceScale() const
   return *last.covariance_scale;
 }
 
-
 double
 RegistrationCore::evaluate(const Eigen::Matrix4d& pose, std::string* error)
 {
