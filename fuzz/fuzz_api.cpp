@@ -2,7 +2,7 @@
  * libFuzzer target: sequences of calls on pcl::MutualInformationRegistration as a user of
  * the PCL contract makes them: clouds set, replaced, cleared or nulled, indices in and out
  * of range, setters with any value, align() with rigid and non-rigid guesses,
- * getFitnessScore() and evaluate() at any moment (docs/hardening.md, classes 5, 6, 7, 9,
+ * getFitnessScore(), getCovariance() and evaluate() at any moment (docs/hardening.md, classes 5, 6, 7, 9,
  * 10, 11 and 12). Invariants: no crash, no hang; a result that says converged has no error;
  * a failed align() leaves the guess as the final transformation and says why.
  * SPDX-License-Identifier: BSD-3-Clause
@@ -146,6 +146,9 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
     }
     case 7:
       (void)reg.getFitnessScore();
+      // At any moment, after any change: the first call refines the last result again.
+      if (!reg.getCovariance().allFinite())
+        __builtin_trap();
       break;
     case 8:
       (void)reg.evaluate(makeGuess(in));

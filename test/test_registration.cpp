@@ -1245,10 +1245,19 @@ TEST(Registration, TheCovarianceHoldsTheErrorsOfASparseRingScannersSplitHalves)
 
 // covarianceScale() belongs to the last alignment: computed once, kept until the next
 // align(), and 1 once new clouds were prepared before it was asked (evaluate() after
-// setInputSource()), since the result's cells are gone then.
+// setInputSource()) or the resolution changed, since the result's cells are gone then.
 TEST(Registration, TheCovarianceScaleBelongsToTheLastAlignment)
 {
-  const Cloud::Ptr target = test_data::loadScan("00", 0), source = test_data::loadScan("00", 9);
+  // Halves of a Riverside scan, which the scale widens (see the test above).
+  pcl::PointCloud<pcl::PointXYZI> xyzi;
+  ASSERT_EQ(pcl_mi::io::loadKittiBin(std::string(PCL_MI_DATA_DIR) +
+                                         "/foreign_lidar/mulran_riverside02_os1/scans/000002.bin",
+                                     xyzi),
+            "");
+  Cloud scan;
+  pcl::copyPointCloud(xyzi, scan);
+  Cloud::Ptr target, source;
+  splitAndMove(scan, test_data::planarMotion(0.6, 0.0, 2.0), target, source);
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
   reg.setInputTarget(target);
   reg.setInputSource(source);
@@ -1256,7 +1265,7 @@ TEST(Registration, TheCovarianceScaleBelongsToTheLastAlignment)
   reg.align(aligned);
   ASSERT_TRUE(reg.hasConverged()) << reg.getLastError();
   const double scale = reg.core().covarianceScale();
-  EXPECT_GE(scale, 1.0);
+  EXPECT_GT(scale, 1.0);
   EXPECT_EQ(reg.core().covarianceScale(), scale);
   EXPECT_TRUE(reg.getCovariance().isApprox(scale * reg.getVerification().covariance));
 
@@ -1266,10 +1275,16 @@ TEST(Registration, TheCovarianceScaleBelongsToTheLastAlignment)
 
   // New clouds prepared before it is asked: nothing left to refine the result on.
   reg.align(aligned);
-  reg.setInputSource(test_data::loadScan("00", 0));
+  reg.setInputSource(target);
   reg.evaluate(Eigen::Matrix4f::Identity());
   EXPECT_EQ(reg.core().covarianceScale(), 1.0);
   EXPECT_TRUE(reg.getCovariance().isApprox(reg.getVerification().covariance));
+
+  // Nor after a new resolution: the cells it was found on are not the problem's now.
+  reg.setInputSource(source);
+  reg.align(aligned);
+  reg.setResolution(2.0);
+  EXPECT_EQ(reg.core().covarianceScale(), 1.0);
 }
 
 namespace {

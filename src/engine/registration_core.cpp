@@ -180,8 +180,23 @@ struct RegistrationCore::Impl {
     Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
     Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
     std::uint64_t preparation = 0;
+    Parameters parameters; // in use
     std::optional<double> covariance_scale;
   } last;
+
+  /** True where the problem still holds the cells and the parameters the last result was
+   * found with: no new clouds prepared, no grid, sampling, refinement or pinned parameter
+   * changed. */
+  bool
+  lastResultsCellsKept() const
+  {
+    const Parameters& now = problem.parameters();
+    const Parameters& then = last.parameters;
+    const auto pinned = [](const Parameters& p) { return p.search.simplex_steps.cwiseEqual(0.0); };
+    return last.preparation == problem.preparations() && now.grid == then.grid &&
+           now.sampling == then.sampling && now.refinement == then.refinement &&
+           pinned(now) == pinned(then);
+  }
   /** For the reverse search: align() stops after the search, with its best optimum and
    * the runners-up in search_optima. */
   bool stop_after_search = false;
@@ -417,6 +432,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   impl_->last.pose = result.transformation;
   impl_->last.covariance = result.verification.covariance;
   impl_->last.preparation = problem.preparations();
+  impl_->last.parameters = problem.parameters();
   return result;
 }
 
@@ -426,9 +442,9 @@ RegistrationCore::covarianceScale() const
   Impl::LastResult& last = impl_->last;
   if (!last.covariance_scale)
     last.covariance_scale =
-        last.preparation != impl_->problem.preparations()
-            ? 1.0
-            : core::phaseSpreadScale(impl_->problem, last.pose, last.covariance);
+        impl_->lastResultsCellsKept()
+            ? core::phaseSpreadScale(impl_->problem, last.pose, last.covariance)
+            : 1.0;
   return *last.covariance_scale;
 }
 
