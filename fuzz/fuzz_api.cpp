@@ -2,9 +2,10 @@
  * libFuzzer target: sequences of calls on pcl::MutualInformationRegistration as a user of
  * the PCL contract makes them: clouds set, replaced, cleared or nulled, indices in and out
  * of range, setters with any value, align() with rigid and non-rigid guesses,
- * getFitnessScore(), getCovariance() and evaluate() at any moment (docs/hardening.md, classes 5, 6, 7, 9,
- * 10, 11 and 12). Invariants: no crash, no hang; a result that says converged has no error;
- * a failed align() leaves the guess as the final transformation and says why.
+ * getFitnessScore(), getCovariance() and evaluate() at any moment (docs/hardening.md,
+ * classes 5, 6, 7, 9, 10, 11 and 12). Invariants: no crash, no hang; a result that says
+ * converged has no error; a failed align() leaves the guess as the final transformation and
+ * says why; the covariance is finite.
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "fuzz_input.h"

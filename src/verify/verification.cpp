@@ -313,12 +313,11 @@ scaledInformation(const PoseEvidence& at, double radius)
   return Eigen::SelfAdjointEigenSolver<Matrix6d>(scale.asDiagonal() * h * scale.asDiagonal());
 }
 
-/** The observability of \a at, rotations scaled by \a radius; directions in the local
- * frame. */
+/** The observability from \a solver, scaledInformation()'s decomposition; directions in the
+ * local frame. */
 void
-observabilityOf(const PoseEvidence& at, double radius, Verification& v)
+observabilityOf(const Eigen::SelfAdjointEigenSolver<Matrix6d>& solver, Verification& v)
 {
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver = scaledInformation(at, radius);
   const double largest = solver.eigenvalues()[5];
   if (!(largest > 0.0))
     return;
@@ -331,6 +330,47 @@ double
 rotationRadius(const SourceSamples& source, double resolution)
 {
   return std::max(rmsRadius(source), resolution);
+}
+
+/** planeCovariance() of \a at from \a solver, scaledInformation(at, radius)'s
+ * decomposition. */
+Matrix6d
+covarianceFrom(const PoseEvidence& at,
+               const Eigen::SelfAdjointEigenSolver<Matrix6d>& solver,
+               double radius,
+               const Eigen::Vector3d& target_centroid,
+               const Eigen::Matrix3d& target_axes)
+{
+  const double largest = solver.eigenvalues()[5];
+  if (!(largest > 0.0) || at.inliers <= 6 || !(solver.eigenvalues()[0] / largest > 0.0))
+    return Matrix6d::Zero();
+  const Matrix6d order = covarianceOrder();
+  const Eigen::Matrix<double, 6, 1> scale = rotationScale(radius);
+  // Residual variance across the surfaces, then back from the scaled increments; the
+  // increment about the target local origin becomes one about the input frame's origin:
+  // delta_origin = delta + c x omega.
+  const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
+  const Matrix6d scaled_inverse = solver.eigenvectors() *
+                                  solver.eigenvalues().cwiseInverse().asDiagonal() *
+                                  solver.eigenvectors().transpose();
+  // The result is not exactly the point-to-plane optimum (the refinement weighs distributions,
+  // not planes, and stops early): the Gauss-Newton step to it is an error of its own, which
+  // the covariance takes in as its outer product.
+  const Eigen::Matrix<double, 6, 1> step =
+      scaled_inverse * (scale.asDiagonal() * (order * at.plane_gradient));
+  const Matrix6d scaled_covariance = variance * scaled_inverse + step * step.transpose();
+  Matrix6d to_input = Matrix6d::Zero(); // [delta, omega] turn alike
+  to_input.block<3, 3>(0, 0) = target_axes;
+  to_input.block<3, 3>(3, 3) = target_axes;
+  const Matrix6d local =
+      to_input * scale.asDiagonal() * scaled_covariance * scale.asDiagonal() * to_input.transpose();
+  Matrix6d to_origin = Matrix6d::Identity();
+  Eigen::Matrix3d cross;
+  cross << 0.0, -target_centroid.z(), target_centroid.y(), //
+      target_centroid.z(), 0.0, -target_centroid.x(),      //
+      -target_centroid.y(), target_centroid.x(), 0.0;
+  to_origin.block<3, 3>(0, 3) = cross;
+  return to_origin * local * to_origin.transpose();
 }
 
 /** The confidence the evidence in \a v gives. */
@@ -375,37 +415,7 @@ planeCovariance(const PoseEvidence& at,
                 const Eigen::Matrix3d& target_axes)
 {
   const double radius = rotationRadius(source, resolution);
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver = scaledInformation(at, radius);
-  const double largest = solver.eigenvalues()[5];
-  if (!(largest > 0.0) || at.inliers <= 6 || !(solver.eigenvalues()[0] / largest > 0.0))
-    return Matrix6d::Zero();
-  const Matrix6d order = covarianceOrder();
-  const Eigen::Matrix<double, 6, 1> scale = rotationScale(radius);
-  // Residual variance across the surfaces, then back from the scaled increments; the
-  // increment about the target local origin becomes one about the input frame's origin:
-  // delta_origin = delta + c x omega.
-  const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
-  const Matrix6d scaled_inverse = solver.eigenvectors() *
-                                  solver.eigenvalues().cwiseInverse().asDiagonal() *
-                                  solver.eigenvectors().transpose();
-  // The result is not exactly the point-to-plane optimum (the refinement weighs distributions,
-  // not planes, and stops early): the Gauss-Newton step to it is an error of its own, which
-  // the covariance takes in as its outer product.
-  const Eigen::Matrix<double, 6, 1> step =
-      scaled_inverse * (scale.asDiagonal() * (order * at.plane_gradient));
-  const Matrix6d scaled_covariance = variance * scaled_inverse + step * step.transpose();
-  Matrix6d to_input = Matrix6d::Zero(); // [delta, omega] turn alike
-  to_input.block<3, 3>(0, 0) = target_axes;
-  to_input.block<3, 3>(3, 3) = target_axes;
-  const Matrix6d local =
-      to_input * scale.asDiagonal() * scaled_covariance * scale.asDiagonal() * to_input.transpose();
-  Matrix6d to_origin = Matrix6d::Identity();
-  Eigen::Matrix3d cross;
-  cross << 0.0, -target_centroid.z(), target_centroid.y(), //
-      target_centroid.z(), 0.0, -target_centroid.x(),      //
-      -target_centroid.y(), target_centroid.x(), 0.0;
-  to_origin.block<3, 3>(0, 3) = cross;
-  return to_origin * local * to_origin.transpose();
+  return covarianceFrom(at, scaledInformation(at, radius), radius, target_centroid, target_axes);
 }
 
 Verification
@@ -449,8 +459,9 @@ verifyPose(const TargetDistributions& target,
   const double floor_entropy = std::min(h.source, h.target);
   v.normalized_mi = floor_entropy > 0.0 ? h.mutualInformation() / floor_entropy : 0.0;
 
-  observabilityOf(at, radius, v);
-  v.covariance = planeCovariance(at, source, resolution, target_centroid, target_axes);
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> information = scaledInformation(at, radius);
+  observabilityOf(information, v);
+  v.covariance = covarianceFrom(at, information, radius, target_centroid, target_axes);
   // The two least observable directions ([t, omega * radius]), moved either way so far that
   // the samples move one voxel (root mean square). A turn scaled at the RMS radius moves a
   // narrow view's samples much less than that about its axis of view, which left such turns
