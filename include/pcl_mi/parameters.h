@@ -123,6 +123,13 @@ struct SearchParameters {
    * does (docs/method.md gives the measurements). */
   Eigen::Matrix<double, 6, 1> simplex_steps =
       (Eigen::Matrix<double, 6, 1>() << -16.0, -16.0, -4.0, 0.1, 0.1, 0.8).finished();
+  /** \brief Which of [tx, ty, tz, roll, pitch, yaw] the search moves: those with a non-zero
+   * step. */
+  Eigen::Matrix<bool, 6, 1>
+  searched() const
+  {
+    return simplex_steps.array() != 0.0;
+  }
   /** Also start a second simplex with all steps negated and keep the better result. The
    * paper's simplex explores mainly along its positive steps and misses large motion in
    * the opposite direction (e.g. aligning an earlier scan onto a later one). */

@@ -14,7 +14,7 @@ namespace core {
 bool
 levelingApplies(const Parameters& parameters)
 {
-  return parameters.search.leveling && (parameters.search.simplex_steps.array() != 0.0).all();
+  return parameters.search.leveling && parameters.search.searched().all();
 }
 
 bool

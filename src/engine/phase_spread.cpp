@@ -39,8 +39,7 @@ phaseSpreadScale(PreparedProblem& problem,
   RefinementOptions options;
   options.max_iterations = p.refinement.max_iterations;
   options.num_threads = p.num_threads;
-  for (int i = 0; i < 6; ++i)
-    options.active[i] = p.search.simplex_steps[i] != 0.0;
+  options.active = p.search.searched();
   const LocalPose start = problem.toLocal(pose);
   const RefinementResult moved =
       refineToDistributions(target, source, start.rotation, start.translation, options);

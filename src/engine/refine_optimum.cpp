@@ -34,9 +34,7 @@ refineOptimum(PreparedProblem& problem,
   RefinementOptions options;
   options.max_iterations = p.refinement.max_iterations;
   options.num_threads = p.num_threads;
-  const std::array<bool, 6> searched = space.searched();
-  for (int i = 0; i < 6; ++i)
-    options.active[i] = searched[static_cast<std::size_t>(i)];
+  options.active = space.searched();
   RefinedOptimum result;
   RefinementResult refined;
   refined.rotation = start.rotation;

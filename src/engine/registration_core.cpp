@@ -192,10 +192,9 @@ struct RegistrationCore::Impl {
   {
     const Parameters& now = problem.parameters();
     const Parameters& then = last.parameters;
-    const auto pinned = [](const Parameters& p) { return p.search.simplex_steps.cwiseEqual(0.0); };
     return last.preparation == problem.preparations() && now.grid == then.grid &&
            now.sampling == then.sampling && now.refinement == then.refinement &&
-           pinned(now) == pinned(then);
+           now.search.searched() == then.search.searched();
   }
   /** For the reverse search: align() stops after the search, with its best optimum and
    * the runners-up in search_optima. */

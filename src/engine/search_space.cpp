@@ -17,8 +17,9 @@ SearchSpace::SearchSpace(const Parameters& parameters,
                          const Eigen::Vector3d& pivot)
 : guess_(guess), pivot_(pivot)
 {
+  const Eigen::Matrix<bool, 6, 1> searched = parameters.search.searched();
   for (int i = 0; i < 6; ++i)
-    if (parameters.search.simplex_steps[i] != 0.0)
+    if (searched[i])
       active_.push_back(i);
 }
 
@@ -71,12 +72,12 @@ SearchSpace::index(int parameter) const
   return it == active_.end() ? -1 : static_cast<Eigen::Index>(it - active_.begin());
 }
 
-std::array<bool, 6>
+Eigen::Matrix<bool, 6, 1>
 SearchSpace::searched() const
 {
-  std::array<bool, 6> searched{};
+  Eigen::Matrix<bool, 6, 1> searched = Eigen::Matrix<bool, 6, 1>::Constant(false);
   for (const int i : active_)
-    searched[static_cast<std::size_t>(i)] = true;
+    searched[i] = true;
   return searched;
 }
 

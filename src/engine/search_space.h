@@ -11,7 +11,6 @@
 
 #include <Eigen/Core>
 
-#include <array>
 #include <optional>
 #include <vector>
 
@@ -46,7 +45,7 @@ public:
   index(int parameter) const;
 
   /** \brief Which of the six parameters are searched. */
-  std::array<bool, 6>
+  Eigen::Matrix<bool, 6, 1>
   searched() const;
 
   /** \brief Options for searchCoarseToFine() with the steps, tolerances and starts of
