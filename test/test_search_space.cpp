@@ -40,3 +40,20 @@ TEST(SearchSpace, VectorInvertsPose)
   const Eigen::Vector3d x(1.5, -2.0, 0.3);
   EXPECT_LT((planar.vector(planar.pose(x)) - Eigen::VectorXd(x)).norm(), 1e-9);
 }
+
+// A zero step pins its parameter: the parameters and the space built from them agree on
+// which are searched, and the search vector holds those alone.
+TEST(SearchSpace, AZeroStepPinsItsParameter)
+{
+  pcl_mi::Parameters p;
+  EXPECT_TRUE(p.search.searched().all());
+  p.search.simplex_steps[2] = p.search.simplex_steps[4] = 0.0;
+  Eigen::Matrix<bool, 6, 1> expected;
+  expected << true, true, false, true, false, true;
+  EXPECT_EQ(p.search.searched(), expected);
+  const SearchSpace space(p, Eigen::Matrix4d::Identity(), Eigen::Vector3d::Zero());
+  EXPECT_EQ(space.searched(), expected);
+  EXPECT_EQ(space.index(2), -1);
+  EXPECT_EQ(space.index(4), -1);
+  EXPECT_EQ(space.index(5), 3);
+}
