@@ -9,7 +9,7 @@ scan, K = 4 a 16-ring one (about 1.7 deg between rings, close to a VLP-16's 2 de
 usage: kitti_ring_subset.py KITTI_ROOT K OUT_DIR [--sequences 00,01,02,05,08]
                             [--distance 1,10] [--max-yaw 20] [--poses semantic|gt]
                             [--scale S] [--fov DEG] [--voxel M] [--keep-every N]
-                            [--noise SIGMA] [--seed N]
+                            [--noise SIGMA] [--seed N] [--max-range M]
 
 --scale S multiplies every coordinate and the reference translations by S (e.g. 1000 for
 millimetres, 0.1 for a scene the size of a room), to check that an alignment at resolution
@@ -21,6 +21,8 @@ thins its scans with a voxel filter hands them over: about as many points near t
 far from it.
 --keep-every N keeps every N-th point of what is left, as a front end that decimates its scans
 (e.g. a LIO's point filter) hands them over: sparser everywhere, near and far alike.
+--max-range M keeps only the points within M metres of the sensor, as a short-range sensor
+(an indoor or low-cost one) would see the scene; KITTI's reach is about 80 m.
 --noise SIGMA adds Gaussian noise of SIGMA metres (before scaling) to each coordinate of every
 point, as a noisier sensor would measure it; --seed N fixes the draws (default 1).
 
@@ -66,6 +68,7 @@ def main():
     parser.add_argument("--keep-every", type=int, default=1)
     parser.add_argument("--noise", type=float, default=0.0)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--max-range", type=float, default=math.inf)
     args = parser.parse_args()
     if args.every < 1:
         sys.exit("kitti_ring_subset: K must be >= 1")
@@ -75,6 +78,8 @@ def main():
         sys.exit("kitti_ring_subset: --fov must be in (0, 360]")
     if args.keep_every < 1:
         sys.exit("kitti_ring_subset: --keep-every must be >= 1")
+    if not args.max_range > 0:
+        sys.exit("kitti_ring_subset: --max-range must be positive")
     if not (args.noise >= 0 and math.isfinite(args.noise)):
         sys.exit("kitti_ring_subset: --noise must be 0 or more and finite")
     random = np.random.default_rng(args.seed)
@@ -91,6 +96,8 @@ def main():
             if args.fov < 360:
                 azimuth = np.degrees(np.arctan2(subset[:, 1], subset[:, 0]))
                 subset = subset[np.abs(azimuth) <= args.fov / 2]
+            if math.isfinite(args.max_range):
+                subset = subset[np.linalg.norm(subset[:, :3], axis=1) <= args.max_range]
             if args.voxel > 0:
                 cells = np.floor(subset[:, :3] / args.voxel).astype(np.int64)
                 _, first = np.unique(cells, axis=0, return_index=True)

@@ -4,8 +4,8 @@
 # are kept, that the list holds the two bundled pairs with their reference poses, and that
 # MI-VARZ aligns all four alignments within 0.15 m / 0.5 deg, that --scale scales the
 # points and the reference translations only, that --fov cuts to the field of view, and
-# that --noise adds noise of the deviation asked, reproducibly, and that --keep-every keeps
-# every N-th point.
+# that --noise adds noise of the deviation asked, reproducibly, that --keep-every keeps
+# every N-th point, and that --max-range keeps the points within that range.
 # Usage: run_ring_subset_test.sh SCRIPT COMPARE_BINARY DATA_DIR WORK_DIR
 set -euo pipefail
 script=$1 compare=$2 data=$3 work=$4
@@ -71,4 +71,15 @@ full = np.fromfile(f"{sys.argv[1]}/00_000009.bin", dtype=np.float32).reshape(-1,
 kept = np.fromfile(f"{sys.argv[2]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
 assert np.array_equal(kept, full[::9]), (len(kept), len(full))
 print(f"--keep-every 9: {len(kept)} of {len(full)} points kept, every 9th")
+PY
+# --max-range M keeps the points within M metres of the sensor, and all of those.
+"$script" "$data/kitti" 1 "$work/near" --sequences 00 --max-range 20 > /dev/null
+/usr/bin/python3 - "$work/all" "$work/near" <<'PY'
+import sys
+import numpy as np
+full = np.fromfile(f"{sys.argv[1]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+near = np.fromfile(f"{sys.argv[2]}/00_000009.bin", dtype=np.float32).reshape(-1, 4)
+inside = np.linalg.norm(full[:, :3], axis=1) <= 20
+assert np.array_equal(near, full[inside]) and 0.3 < len(near) / len(full) < 0.95, len(near)
+print(f"--max-range 20: {len(near)} of {len(full)} points kept, all within 20 m")
 PY
