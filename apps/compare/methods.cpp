@@ -207,6 +207,8 @@ runMethod(const std::string& chain,
                                  std::fmin(v.free_turn_mi_loss[0], v.free_turn_mi_loss[1]),
                                  v.observability_directions.col(weaker).tail<3>().norm()};
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
+    if (!o.converged)
+      o.reason = mi->getLastError();
   }
   return o;
 }

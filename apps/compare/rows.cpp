@@ -10,12 +10,9 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
-#include <sstream>
 
 namespace pcl_mi {
 namespace compare {
-
-using pcl_mi::apps::split;
 
 namespace {
 constexpr std::size_t kLegacyFields = 14;
@@ -24,7 +21,39 @@ constexpr std::size_t kVerdictFields = kPoseFields + 7;
 constexpr std::size_t kEvidenceFields = kVerdictFields + 7; // before the lead
 constexpr std::size_t kLeadFields = kEvidenceFields + 1;
 constexpr std::size_t kTurnLossFields = kLeadFields + 1; // the free turns' MI loss
-constexpr std::size_t kFields = kTurnLossFields + 1;     // the weaker direction's turn share
+constexpr std::size_t kTurnShareFields = kTurnLossFields + 1; // the weaker direction's turn share
+constexpr std::size_t kFields = kTurnShareFields + 1;          // why MI's result was refused
+
+/** \a line's comma-separated fields; a field in double quotes may hold commas, and two
+ * double quotes in it stand for one (RFC 4180). */
+std::vector<std::string>
+csvFields(const std::string& line)
+{
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted && c == '"' && i + 1 < line.size() && line[i + 1] == '"')
+      fields.back() += line[++i];
+    else if (c == '"')
+      quoted = !quoted;
+    else if (c == ',' && !quoted)
+      fields.emplace_back();
+    else
+      fields.back() += c;
+  }
+  return fields;
+}
+
+/** \a text in double quotes, its own double quotes doubled (RFC 4180). */
+std::string
+quoted(const std::string& text)
+{
+  std::string q = "\"";
+  for (const char c : text)
+    q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + '"';
+}
 } // namespace
 
 /** The first 14 columns are the original format, which readRows() still accepts; the columns
@@ -45,7 +74,7 @@ csvHeader(bool with_poses)
         h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
   h += ",confidence,sd_x_m,sd_y_m,sd_z_m,sd_roll_deg,sd_pitch_deg,sd_yaw_deg";
   h += ",search_converged,inliers,inlier_fraction,peak_contrast,weakest_contrast,normalized_mi,"
-       "free_direction_contrast,lead,free_turn_mi_loss,free_direction_turn_share";
+       "free_direction_contrast,lead,free_turn_mi_loss,free_direction_turn_share,reason";
   return h;
 }
 
@@ -86,7 +115,28 @@ writeRow(std::ostream& out, const Row& r)
     out << ',' << sd;
   for (double e : r.evidence)
     out << ',' << e;
-  out << '\n';
+  out << ',' << quoted(r.reason) << '\n';
+}
+
+std::string
+reasonKind(const std::string& reason)
+{
+  // getLastError() of a result that did not converge: "not converged: CAUSE; the final
+  // transformation is the best one found", the test's reason first in CAUSE.
+  const std::string prefix = "not converged: ";
+  if (reason.rfind(prefix, 0) != 0)
+    return "failed";
+  const std::string cause = reason.substr(prefix.size());
+  const auto starts = [&cause](const char* text) { return cause.rfind(text, 0) == 0; };
+  if (starts("degenerate"))
+    return "degenerate";
+  if (starts("the clouds share too little surface"))
+    return "too little shared surface";
+  if (starts("a second optimum"))
+    return "a second optimum";
+  if (starts("the evidence is weak"))
+    return "weak evidence";
+  return "the search capped";
 }
 
 /** Reads rows written by writeRow(); false with \a error on a malformed file. */
@@ -108,17 +158,14 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
         line == header.substr(0, header.find(",search_converged")) ||
         line == header.substr(0, header.find(",lead")) ||
         line == header.substr(0, header.find(",free_turn_mi_loss")) ||
-        line == header.substr(0, header.find(",free_direction_turn_share")))
+        line == header.substr(0, header.find(",free_direction_turn_share")) ||
+        line == header.substr(0, header.find(",reason")))
       continue;
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    std::string item;
-    while (std::getline(ss, item, ','))
-      f.push_back(item);
+    const std::vector<std::string> f = csvFields(line);
     try {
       if (f.size() != kLegacyFields && f.size() != kPoseFields && f.size() != kVerdictFields &&
           f.size() != kEvidenceFields && f.size() != kLeadFields && f.size() != kTurnLossFields &&
-          f.size() != kFields)
+          f.size() != kTurnShareFields && f.size() != kFields)
         throw std::invalid_argument("field count");
       Row r;
       r.sequence = f[0];
@@ -151,8 +198,10 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
             sd = std::stod(f[k++]);
         }
         for (double& e : r.evidence)
-          if (k < f.size())
+          if (k < kTurnShareFields && k < f.size())
             e = std::stod(f[k++]);
+        if (f.size() == kFields)
+          r.reason = f[kFields - 1];
       }
       rows.push_back(r);
     }

@@ -47,6 +47,10 @@ struct Row {
    * norm of its rotation part, scaled by the RMS radius, in [0, 1]). NaN as above; the last
    * three also in rows of files without them. */
   double evidence[10] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+  /** Why MI's result did not converge or failed: its getLastError(); empty where it
+   * converged, for other methods and in rows of files without the column. Written last,
+   * quoted (RFC 4180), since it holds commas. */
+  std::string reason;
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
   /** With -reuse_target, whether this MI run prepared a target it had not kept (the first
@@ -66,6 +70,12 @@ travelFrameError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& referen
 
 void
 writeRow(std::ostream& out, const Row& r);
+
+/** The kind of refusal \a reason (a Row::reason) names, for tables: "degenerate", "too
+ * little shared surface", "a second optimum", "weak evidence", "the search capped", "failed"
+ * (an error, not a verdict); the test's reason where it names one. */
+std::string
+reasonKind(const std::string& reason);
 
 /** Reads rows written by writeRow(); false with \a error on a malformed file. */
 bool

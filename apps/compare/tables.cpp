@@ -60,6 +60,38 @@ printVerdict(const std::vector<Row>& rows,
               "results within it that said converged)\n");
 }
 
+/** Why MI's results did not say converged, by kind of reason (reasonKind()), with how many
+ * of them were within the bound anyway: the right results each rule holds back. Only for
+ * methods whose rows carry reasons. */
+void
+printRefusals(const std::vector<Row>& rows,
+              const std::vector<std::string>& methods,
+              const std::vector<double>& bound)
+{
+  bool any = false;
+  for (const auto& m : methods) {
+    std::map<std::string, std::pair<int, int>> by_kind; // rows, right
+    for (const auto& r : rows)
+      if (r.method == m && !r.converged && !r.reason.empty()) {
+        auto& count = by_kind[reasonKind(r.reason)];
+        ++count.first;
+        count.second += succeeded(r, bound);
+      }
+    if (by_kind.empty())
+      continue;
+    if (!any)
+      std::printf("\nNot converged, by reason (the CSV's reason column)\n%-14s %-26s %6s %6s\n",
+                  "method", "reason", "rows", "right");
+    any = true;
+    for (const auto& [kind, count] : by_kind)
+      std::printf("%-14s %-26s %6d %6d\n", m.c_str(), kind.c_str(), count.first, count.second);
+  }
+  if (any)
+    std::printf("(right: within the success bound all the same; the search capped: its "
+                "iteration cap, or a capped runner-up's or reverse search's optimum, ended it "
+                "before its tolerance)\n");
+}
+
 /** Width of the summary tables' method column: the longest name, at least 14. */
 int
 methodColumnWidth(const std::vector<std::string>& methods)
@@ -316,6 +348,7 @@ printTables(const std::vector<Row>& rows,
   printStages(rows, methods);
   printKeptTargets(rows, methods);
   printVerdict(rows, methods, bound);
+  printRefusals(rows, methods, bound);
   printBias(rows, methods, bound);
 }
 
