@@ -85,6 +85,7 @@ TEST(Verification, RealPairConvergesWithHighConfidence)
   Registration reg;
   alignDefaults(reg, test_data::loadScan("00", 9), test_data::loadScan("00", 0));
   EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_EQ(reg.getVerification().refusal, pcl_mi::Refusal::None);
   EXPECT_GE(reg.getConfidence(), 0.95);
   EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(),
                    test_data::referenceTransform("00", 0, 9));
@@ -121,6 +122,7 @@ TEST(Verification, CorridorIsDegenerateAlongItsLength)
   Registration reg;
   alignDefaults(reg, moved(corridor, 1.5, 0.0, 0.0), pcl::make_shared<Cloud>(corridor));
   expectNotTrusted(reg, "degenerate along x:");
+  EXPECT_EQ(reg.getVerification().refusal, pcl_mi::Refusal::Degenerate);
   EXPECT_TRUE(reg.getCovariance().isZero());
 }
 

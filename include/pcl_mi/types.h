@@ -155,6 +155,21 @@ struct StageTiming {
   double total_ms = 0.0; ///< wall-clock milliseconds, summed over calls
 };
 
+/** \brief Which test of the verdict refused a result (docs/method.md, "The verdict"), so that
+ * code can act on the kind without parsing Verification::reason. */
+enum class Refusal {
+  None,                ///< the result passed every test
+  LittleSharedSurface, ///< too few source samples on the target's surfaces
+  Degenerate,          ///< the surfaces leave a direction free (a corridor, a floor)
+  SecondOptimum,       ///< a pose nearby scores a higher MI on the finest grid
+  WeakEvidence         ///< the confidence is under the threshold
+};
+
+/** \brief Short name of a refusal: "none", "too little shared surface", "degenerate", "a
+ * second optimum", "weak evidence". */
+const char*
+refusalName(Refusal refusal);
+
 /** \brief The evidence for and against one result, and what it implies (docs/method.md,
  * "The verdict"). Pose increments are [tx, ty, tz, roll, pitch, yaw]: a small motion
  * applied on the left of the result (in the target frame, rotations about its origin) that
@@ -166,6 +181,8 @@ struct Verification {
   double confidence = 0.0;
   /** Empty when the result passes the reliability test, otherwise why not. */
   std::string reason;
+  /** Which test refused the result (None where reason is empty). */
+  Refusal refusal = Refusal::None;
   /** Share of the source samples that fall into a target cube with a surface. */
   double overlap = 0.0;
   /** Share of those within three standard deviations of the cube's surface (inliers). */

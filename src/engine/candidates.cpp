@@ -68,6 +68,7 @@ refuseASecondOptimum(PreparedProblem& problem, AlignmentResult& result)
          << shift.x() << ", " << shift.y() << ", " << shift.z()
          << "), along the direction the surfaces constrain least, scores a higher MI";
   result.verification.reason = reason.str();
+  result.verification.refusal = Refusal::SecondOptimum;
   result.converged = false;
 }
 
@@ -243,6 +244,7 @@ judgeWithLead(PreparedProblem& problem, double lead, AlignmentResult& result)
   Verification without = v;
   judge(without);
   const std::string previous = v.reason;
+  const Refusal previous_refusal = v.refusal;
   v.lead = lead;
   judge(v);
   if (!v.reason.empty()) {
@@ -251,6 +253,7 @@ judgeWithLead(PreparedProblem& problem, double lead, AlignmentResult& result)
   }
   if (without.reason.empty()) {
     v.reason = previous;
+    v.refusal = previous_refusal;
     result.converged = result.search_converged && previous.empty();
     return;
   }

@@ -48,6 +48,24 @@ featureName(Feature feature)
   return "unknown";
 }
 
+const char*
+refusalName(Refusal refusal)
+{
+  switch (refusal) {
+  case Refusal::None:
+    return "none";
+  case Refusal::LittleSharedSurface:
+    return "too little shared surface";
+  case Refusal::Degenerate:
+    return "degenerate";
+  case Refusal::SecondOptimum:
+    return "a second optimum";
+  case Refusal::WeakEvidence:
+    return "weak evidence";
+  }
+  return "unknown";
+}
+
 bool
 parseBackend(const std::string& name, Backend& backend)
 {

@@ -510,18 +510,27 @@ judge(Verification& v)
   v.confidence = confidenceOf(v);
   const bool free[2] = {isFree(v, 0), isFree(v, 1)};
   std::ostringstream reason;
-  if (!sharesSurface(v))
+  v.refusal = Refusal::None;
+  if (!sharesSurface(v)) {
+    v.refusal = Refusal::LittleSharedSurface;
     reason << "the clouds share too little surface at this resolution (" << v.inliers
            << " source samples on a target surface)";
-  else if (free[0] || free[1])
+  }
+  else if (free[0] || free[1]) {
+    v.refusal = Refusal::Degenerate;
     reason << "degenerate along " << freeAxes(v, free) << ": the surfaces leave the pose free there";
-  else if (v.lead < 0.0) // false for NaN
+  }
+  else if (v.lead < 0.0) { // false for NaN
+    v.refusal = Refusal::SecondOptimum;
     reason << "a second optimum: one a few voxels across scores a higher MI on the finest "
               "grid (the result's lead is "
            << std::fixed << std::setprecision(0) << 100.0 * v.lead << " %)";
-  else if (v.confidence < kReliableConfidence)
+  }
+  else if (v.confidence < kReliableConfidence) {
+    v.refusal = Refusal::WeakEvidence;
     reason << "the evidence is weak (confidence " << std::fixed << std::setprecision(2)
            << v.confidence << ")";
+  }
   v.reason = reason.str();
 }
 
