@@ -191,6 +191,7 @@ struct Result {
   bool converged = false;
   double confidence = 0.0;
   std::string reason;
+  std::string refusal;
   py::array_t<double> covariance;
   double mutual_information = 0.0;
   int iterations = 0;
@@ -243,6 +244,7 @@ public:
     r.reason = pcl_mi::notConvergedCause(
         result, settings_.max_iterations,
         "max_iterations=" + std::to_string(settings_.max_iterations));
+    r.refusal = pcl_mi::refusalName(result.verification.refusal);
     // Widened where the result depends on where the cells cut the surfaces: a refinement
     // more, after the alignment's time (RegistrationCore::covarianceScale()).
     Eigen::Matrix<double, 6, 6> covariance = result.verification.covariance;
@@ -295,6 +297,9 @@ PYBIND11_MODULE(pcl_mi, m)
       .def_readonly("confidence", &Result::confidence,
                     "probability that the result is within 0.5 m and 2 deg of the true pose")
       .def_readonly("reason", &Result::reason, "why converged is False ('' when True)")
+      .def_readonly("refusal", &Result::refusal,
+                    "which test of the verdict refused the result: 'none', 'too little shared "
+                    "surface', 'degenerate', 'a second optimum' or 'weak evidence'")
       .def_readonly("covariance", &Result::covariance,
                     "6x6 covariance of the left increment [tx, ty, tz, roll, pitch, yaw] "
                     "(m, rad; target frame)")

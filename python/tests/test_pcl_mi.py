@@ -53,13 +53,14 @@ def test_bundled_pairs_align_to_the_reference(sequence, source, target):
     assert translation < 0.08 and rotation < 0.2, (translation, rotation)
     assert result.transformation.shape == (4, 4) and result.transformation.dtype == np.float64
     assert result.evaluations > 0 and result.seconds > 0 and result.mutual_information > 0
-    assert result.confidence >= 0.95 and result.reason == ""
+    assert result.confidence >= 0.95 and result.reason == "" and result.refusal == "none"
     assert result.covariance.shape == (6, 6) and np.all(np.diag(result.covariance) > 0)
 
 
 def test_an_unrelated_pair_is_not_trusted():
     result = pcl_mi.align(scan("02", 0), scan("00", 0))
     assert not result.converged and result.reason != ""
+    assert result.refusal != "none"
     assert result.confidence < 0.5
 
 
