@@ -3,7 +3,7 @@
 set; the set is named by the file name): per set the share of converged results that miss
 the success bound and the share of right results that said converged, then the reliability
 diagram of the confidence over all rows (deciles; bins with fewer than 20 rows are marked).
-Where the CSVs have MI's reason column, the right results that did not say converged are
+Where the CSVs have MI's refusal column, the right results that did not say converged are
 counted per set by kind of reason, as pcl_mi_compare's summary counts them.
 With -thresholds, the pooled verdict each other confidence threshold would give: converged
 where the search converged, at least 30 inliers, no free direction (contrast >= 0.05) and the
@@ -21,24 +21,9 @@ import numpy as np
 
 from fit_confidence import passes_gate
 
-REASON_KINDS = ("degenerate", "too little shared surface", "a second optimum", "weak evidence",
-                "the search capped", "failed")
-
-
-def reason_kind(reason):
-    """The kind of refusal that getLastError() text `reason` names (apps/compare/rows.cpp,
-    reasonKind())."""
-    prefix = "not converged: "
-    if not reason.startswith(prefix):
-        return "failed"
-    cause = reason[len(prefix):]
-    for start, kind in (("degenerate", "degenerate"),
-                        ("the clouds share too little surface", "too little shared surface"),
-                        ("a second optimum", "a second optimum"),
-                        ("the evidence is weak", "weak evidence")):
-        if cause.startswith(start):
-            return kind
-    return "the search capped"
+# The kinds of the CSV's refusal column (apps/compare/methods.cpp).
+REFUSALS = ("degenerate", "too little shared surface", "a second optimum", "weak evidence",
+            "the search capped", "failed")
 
 
 def main(argv):
@@ -70,10 +55,9 @@ def main(argv):
         success += list(ok)
         wrong, found = (said & ~ok).sum(), (said & ok).sum()
         totals += [len(rows), ok.sum(), said.sum(), wrong]
-        if rows and "reason" in rows[0]:
-            kinds = [reason_kind(r["reason"]) for r, right, conv in zip(rows, ok, said)
-                     if right and not conv and r["reason"]]
-            held_back.append((path, [kinds.count(k) for k in REASON_KINDS]))
+        if rows and "refusal" in rows[0]:
+            kinds = [r["refusal"] for r, right, conv in zip(rows, ok, said) if right and not conv]
+            held_back.append((path, [kinds.count(k) for k in REFUSALS]))
         print("| %s | %d | %d | %d | %d (%.1f %%) | %.1f %% |" % (
             os.path.splitext(os.path.basename(path))[0], len(rows), ok.sum(), said.sum(), wrong,
             100.0 * wrong / max(said.sum(), 1), 100.0 * found / max(ok.sum(), 1)))
@@ -82,8 +66,8 @@ def main(argv):
                                                   100.0 * totals[3] / max(totals[2], 1)))
     if held_back:
         print("\nRight results that did not say converged, by kind of reason")
-        print("| set | " + " | ".join(REASON_KINDS) + " |")
-        print("|---|" + "---|" * len(REASON_KINDS))
+        print("| set | " + " | ".join(REFUSALS) + " |")
+        print("|---|" + "---|" * len(REFUSALS))
         for path, counts in held_back:
             print("| %s | %s |" % (os.path.splitext(os.path.basename(path))[0],
                                    " | ".join(str(c) for c in counts)))

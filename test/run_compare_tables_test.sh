@@ -2,8 +2,8 @@
 # The binning and table code on small hand-made CSVs: test/data/compare_small.csv (the
 # original 14 columns) gives means per 1 m / 2 deg bin, median runtime, success rate and the
 # summary; test/data/compare_bias.csv (with the signed error and transform columns) gives the
-# bias table; test/data/compare_reasons.csv (every column, with MI's reasons, quoted) gives
-# the refusals by reason and reads back as written.
+# bias table; test/data/compare_reasons.csv (every column, with MI's refusals and their
+# reasons, quoted) gives the refusals by kind and reads back as written.
 # Usage: run_compare_tables_test.sh COMPARE_BINARY SMALL_CSV BIAS_CSV REASONS_CSV
 set -euo pipefail
 out=$("$1" -merge "$2" -methods mi-varz,gicp)
@@ -41,13 +41,13 @@ if echo "$out" | grep -q '^gicp +backward'; then echo "gicp has no backward rows
 merged=$(mktemp)
 trap 'rm -f "$merged"' EXIT
 "$1" -merge "$2" "$3" -csv "$merged" > /dev/null
-test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 59
+test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 60
 # Every row lacks a value somewhere: the old rows their poses, all of them MI's confidence.
 test "$(grep -c ',nan,' "$merged")" -eq 10
 
-# Reasons: two rows refused as degenerate (one right, one 3 m off), one for weak evidence and
-# one for a capped search (both right), one failure; the converged row has none. Rows without
-# reasons print no such table.
+# Refusals: two rows refused as degenerate (one right, one 3 m off), one for weak evidence
+# and one for a capped search (both right), one failure; the converged row has none. Rows
+# without the column print no such table.
 out=$("$1" -merge "$4" -methods mi-varz)
 echo "$out"
 expect '^mi-varz +degenerate +2 +1$'
@@ -55,7 +55,7 @@ expect '^mi-varz +weak evidence +1 +1$'
 expect '^mi-varz +the search capped +1 +1$'
 expect '^mi-varz +failed +1 +0$'
 test "$(echo "$out" | grep -c '^mi-varz  *[a-z ]* [0-9]  *[0-9]$')" -eq 4
-if "$1" -merge "$3" -methods mi-varz | grep -q "by reason"; then echo "reasons from rows without them"; exit 1; fi
+if "$1" -merge "$3" -methods mi-varz | grep -q "by kind of reason"; then echo "refusals from rows without them"; exit 1; fi
 # The reasons, commas and doubled quotes in them, read back as written, and a file written
 # by -merge merges into itself.
 "$1" -merge "$4" -csv "$merged" > /dev/null

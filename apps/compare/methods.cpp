@@ -207,8 +207,14 @@ runMethod(const std::string& chain,
                                  std::fmin(v.free_turn_mi_loss[0], v.free_turn_mi_loss[1]),
                                  v.observability_directions.col(weaker).tail<3>().norm()};
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
-    if (!o.converged)
+    if (!o.converged) {
+      const pcl_mi::AlignmentResult& last = mi->getLastResult();
+      o.refusal = !last.error.empty() ? "failed"
+                  : last.verification.refusal != pcl_mi::Refusal::None
+                      ? pcl_mi::refusalName(last.verification.refusal)
+                      : "the search capped";
       o.reason = mi->getLastError();
+    }
   }
   return o;
 }

@@ -22,7 +22,7 @@ constexpr std::size_t kEvidenceFields = kVerdictFields + 7; // before the lead
 constexpr std::size_t kLeadFields = kEvidenceFields + 1;
 constexpr std::size_t kTurnLossFields = kLeadFields + 1; // the free turns' MI loss
 constexpr std::size_t kTurnShareFields = kTurnLossFields + 1; // the weaker direction's turn share
-constexpr std::size_t kFields = kTurnShareFields + 1;          // why MI's result was refused
+constexpr std::size_t kFields = kTurnShareFields + 2; // MI's refusal and its reason
 
 /** \a line's comma-separated fields; a field in double quotes may hold commas, and two
  * double quotes in it stand for one (RFC 4180). */
@@ -74,7 +74,7 @@ csvHeader(bool with_poses)
         h += "," + std::string(name) + "_" + std::to_string(r) + std::to_string(c);
   h += ",confidence,sd_x_m,sd_y_m,sd_z_m,sd_roll_deg,sd_pitch_deg,sd_yaw_deg";
   h += ",search_converged,inliers,inlier_fraction,peak_contrast,weakest_contrast,normalized_mi,"
-       "free_direction_contrast,lead,free_turn_mi_loss,free_direction_turn_share,reason";
+       "free_direction_contrast,lead,free_turn_mi_loss,free_direction_turn_share,refusal,reason";
   return h;
 }
 
@@ -115,28 +115,7 @@ writeRow(std::ostream& out, const Row& r)
     out << ',' << sd;
   for (double e : r.evidence)
     out << ',' << e;
-  out << ',' << quoted(r.reason) << '\n';
-}
-
-std::string
-reasonKind(const std::string& reason)
-{
-  // getLastError() of a result that did not converge: "not converged: CAUSE; the final
-  // transformation is the best one found", the test's reason first in CAUSE.
-  const std::string prefix = "not converged: ";
-  if (reason.rfind(prefix, 0) != 0)
-    return "failed";
-  const std::string cause = reason.substr(prefix.size());
-  const auto starts = [&cause](const char* text) { return cause.rfind(text, 0) == 0; };
-  if (starts("degenerate"))
-    return "degenerate";
-  if (starts("the clouds share too little surface"))
-    return "too little shared surface";
-  if (starts("a second optimum"))
-    return "a second optimum";
-  if (starts("the evidence is weak"))
-    return "weak evidence";
-  return "the search capped";
+  out << ',' << r.refusal << ',' << quoted(r.reason) << '\n';
 }
 
 /** Reads rows written by writeRow(); false with \a error on a malformed file. */
@@ -159,7 +138,7 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
         line == header.substr(0, header.find(",lead")) ||
         line == header.substr(0, header.find(",free_turn_mi_loss")) ||
         line == header.substr(0, header.find(",free_direction_turn_share")) ||
-        line == header.substr(0, header.find(",reason")))
+        line == header.substr(0, header.find(",refusal")))
       continue;
     const std::vector<std::string> f = csvFields(line);
     try {
@@ -200,8 +179,10 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
         for (double& e : r.evidence)
           if (k < kTurnShareFields && k < f.size())
             e = std::stod(f[k++]);
-        if (f.size() == kFields)
+        if (f.size() == kFields) {
+          r.refusal = f[kFields - 2];
           r.reason = f[kFields - 1];
+        }
       }
       rows.push_back(r);
     }

@@ -47,9 +47,13 @@ struct Row {
    * norm of its rotation part, scaled by the RMS radius, in [0, 1]). NaN as above; the last
    * three also in rows of files without them. */
   double evidence[10] = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
-  /** Why MI's result did not converge or failed: its getLastError(); empty where it
-   * converged, for other methods and in rows of files without the column. Written last,
-   * quoted (RFC 4180), since it holds commas. */
+  /** Where MI's result did not converge, the kind of reason: pcl_mi::refusalName() of the
+   * verdict's refusal, "the search capped" where the verdict passed but the search stopped
+   * at the iteration cap or its share of it, or "failed" (an error); empty where it
+   * converged, for other methods and in rows of files without the column. */
+  std::string refusal;
+  /** The same result's getLastError(), which says why in full. Written last, quoted (RFC
+   * 4180), since it holds commas. */
   std::string reason;
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
@@ -70,12 +74,6 @@ travelFrameError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& referen
 
 void
 writeRow(std::ostream& out, const Row& r);
-
-/** The kind of refusal \a reason (a Row::reason) names, for tables: "degenerate", "too
- * little shared surface", "a second optimum", "weak evidence", "the search capped", "failed"
- * (an error, not a verdict); the test's reason where it names one. */
-std::string
-reasonKind(const std::string& reason);
 
 /** Reads rows written by writeRow(); false with \a error on a malformed file. */
 bool

@@ -60,9 +60,9 @@ printVerdict(const std::vector<Row>& rows,
               "results within it that said converged)\n");
 }
 
-/** Why MI's results did not say converged, by kind of reason (reasonKind()), with how many
- * of them were within the bound anyway: the right results each rule holds back. Only for
- * methods whose rows carry reasons. */
+/** Why MI's results did not say converged, by kind (Row::refusal), with how many of them
+ * were within the bound anyway: the right results each rule holds back. Only for methods
+ * whose rows carry the kind. */
 void
 printRefusals(const std::vector<Row>& rows,
               const std::vector<std::string>& methods,
@@ -72,16 +72,17 @@ printRefusals(const std::vector<Row>& rows,
   for (const auto& m : methods) {
     std::map<std::string, std::pair<int, int>> by_kind; // rows, right
     for (const auto& r : rows)
-      if (r.method == m && !r.converged && !r.reason.empty()) {
-        auto& count = by_kind[reasonKind(r.reason)];
+      if (r.method == m && !r.converged && !r.refusal.empty()) {
+        auto& count = by_kind[r.refusal];
         ++count.first;
         count.second += succeeded(r, bound);
       }
     if (by_kind.empty())
       continue;
     if (!any)
-      std::printf("\nNot converged, by reason (the CSV's reason column)\n%-14s %-26s %6s %6s\n",
-                  "method", "reason", "rows", "right");
+      std::printf("\nNot converged, by kind of reason (the CSV's refusal column)\n"
+                  "%-14s %-26s %6s %6s\n",
+                  "method", "refusal", "rows", "right");
     any = true;
     for (const auto& [kind, count] : by_kind)
       std::printf("%-14s %-26s %6d %6d\n", m.c_str(), kind.c_str(), count.first, count.second);
