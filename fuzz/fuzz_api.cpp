@@ -5,7 +5,8 @@
  * getFitnessScore(), getCovariance() and evaluate() at any moment (docs/hardening.md,
  * classes 5, 6, 7, 9, 10, 11 and 12). Invariants: no crash, no hang; a result that says
  * converged has no error; a failed align() leaves the guess as the final transformation and
- * says why; the covariance is finite.
+ * says why; the verdict names a refusal exactly where it gives a reason; the covariance is
+ * finite.
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "fuzz_input.h"
@@ -142,6 +143,9 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
           reg.getLastError().rfind("not converged", 0) != 0)
         __builtin_trap();
       if (reg.getLastError().empty() && !reg.getFinalTransformation().allFinite())
+        __builtin_trap();
+      const pcl_mi::Verification& verdict = reg.getVerification();
+      if ((verdict.refusal == pcl_mi::Refusal::None) != verdict.reason.empty())
         __builtin_trap();
       break;
     }
