@@ -3,6 +3,7 @@
  */
 #include "engine/phase_spread.h"
 
+#include "engine/refine_optimum.h"
 #include "util/parallel.h"
 #include "verify/pose_evidence.h"
 #include "verify/verification.h"
@@ -35,14 +36,10 @@ phaseSpreadScale(PreparedProblem& problem,
       source = problem.shiftedRefinementSamples();
   });
   const TargetDistributions& target = *shifted_target;
-  // From the result, as its own refinement ended: the finest stage, the same parameters.
-  RefinementOptions options;
-  options.max_iterations = p.refinement.max_iterations;
-  options.num_threads = p.num_threads;
-  options.active = p.search.searched();
+  // From the result, as its own refinement ended: the finest stage, the same options.
   const LocalPose start = problem.toLocal(pose);
-  const RefinementResult moved =
-      refineToDistributions(target, source, start.rotation, start.translation, options);
+  const RefinementResult moved = refineToDistributions(
+      target, source, start.rotation, start.translation, refinementOptions(p, p.search.searched()));
   const PoseEvidence at =
       gatherPoseEvidence(target, source, moved.rotation, moved.translation, 1, true);
   const Eigen::Matrix<double, 6, 6> moved_covariance =

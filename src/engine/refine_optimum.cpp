@@ -23,6 +23,16 @@ constexpr double kRefinementMaxTurnDeg = 5.0;
 
 } // namespace
 
+RefinementOptions
+refinementOptions(const Parameters& parameters, const Eigen::Matrix<bool, 6, 1>& active)
+{
+  RefinementOptions options;
+  options.max_iterations = parameters.refinement.max_iterations;
+  options.num_threads = parameters.num_threads;
+  options.active = active;
+  return options;
+}
+
 RefinedOptimum
 refineOptimum(PreparedProblem& problem,
               const SearchSpace& space,
@@ -31,10 +41,7 @@ refineOptimum(PreparedProblem& problem,
 {
   const Parameters& p = problem.parameters();
   const LocalPose start = problem.toLocal(optimum);
-  RefinementOptions options;
-  options.max_iterations = p.refinement.max_iterations;
-  options.num_threads = p.num_threads;
-  options.active = space.searched();
+  const RefinementOptions options = refinementOptions(p, space.searched());
   RefinedOptimum result;
   RefinementResult refined;
   refined.rotation = start.rotation;

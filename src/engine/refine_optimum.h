@@ -7,6 +7,7 @@
 
 #include "engine/prepared_problem.h"
 #include "engine/search_space.h"
+#include "refine/refinement.h"
 
 #include <Eigen/Core>
 
@@ -21,6 +22,12 @@ struct RefinedOptimum {
    * the MI optimum. */
   bool accepted = false;
 };
+
+/** \brief The options a result's refinement runs with: \a parameters' iteration cap and
+ * threads, and \a active, the parameters the search moves. A refinement that must end where
+ * the result's did (covarianceScale()'s) takes the same. */
+RefinementOptions
+refinementOptions(const Parameters& parameters, const Eigen::Matrix<bool, 6, 1>& active);
 
 /** \brief Refines \a optimum (source to target, input frames) in the parameters \a space
  * searches: \a coarser_stages stages on cubes 2^k times the refinement's (k = coarser_stages
