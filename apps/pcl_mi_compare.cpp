@@ -221,7 +221,7 @@ merge(int argc, char** argv, int merge_at, const Options& o)
   }
   if (!o.csv_path.empty()) {
     std::ofstream csv(o.csv_path);
-    csv << csvHeader(true) << '\n';
+    csv << csvHeader() << '\n';
     for (const auto& r : rows)
       writeRow(csv, r);
   }
@@ -401,7 +401,7 @@ alignAll(const Options& o,
       print_error("pcl_mi_compare: cannot write '%s'\n", o.csv_path.c_str());
       return false;
     }
-    csv << csvHeader(true) << '\n';
+    csv << csvHeader() << '\n';
   }
   ReusedTargets reused;
   ReusedTargets* reuse = o.reuse_target ? &reused : nullptr;

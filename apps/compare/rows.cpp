@@ -7,8 +7,10 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <fstream>
 #include <iomanip>
+#include <iterator>
 #include <limits>
 
 namespace pcl_mi {
@@ -23,6 +25,20 @@ constexpr std::size_t kLeadFields = kEvidenceFields + 1;
 constexpr std::size_t kTurnLossFields = kLeadFields + 1; // the free turns' MI loss
 constexpr std::size_t kTurnShareFields = kTurnLossFields + 1; // the weaker direction's turn share
 constexpr std::size_t kFields = kTurnShareFields + 2; // MI's refusal and its reason
+/** The column counts of the formats readRows() accepts, each the first columns of the next. */
+constexpr std::size_t kFormats[] = {kLegacyFields,   kPoseFields,     kVerdictFields,
+                                    kEvidenceFields, kLeadFields,     kTurnLossFields,
+                                    kTurnShareFields, kFields};
+
+/** The first \a n columns of the CSV line \a line. */
+std::string
+firstColumns(const std::string& line, std::size_t n)
+{
+  std::size_t end = 0;
+  for (std::size_t i = 0; i < n && end != std::string::npos; ++i)
+    end = line.find(',', end + (i > 0));
+  return line.substr(0, end);
+}
 
 /** \a line's comma-separated fields; a field in double quotes may hold commas, and two
  * double quotes in it stand for one (RFC 4180). */
@@ -56,17 +72,16 @@ quoted(const std::string& text)
 }
 } // namespace
 
-/** The first 14 columns are the original format, which readRows() still accepts; the columns
- * after them keep what an analysis beyond these tables needs: the signed error components and
- * both transforms (top three rows, row-major). */
+/** The first 14 columns are the original format, which readRows() still accepts with the
+ * later ones (kFormats); the columns after them keep what an analysis beyond these tables
+ * needs: the signed error components and both transforms (top three rows, row-major), MI's
+ * verdict, its evidence and its refusal. */
 std::string
-csvHeader(bool with_poses)
+csvHeader()
 {
   std::string h = "sequence,target,source,direction,true_translation_m,true_rotation_deg,"
                   "initial_translation_m,initial_rotation_deg,method,translation_error_m,"
                   "rotation_error_deg,seconds,converged,evaluations";
-  if (!with_poses)
-    return h;
   h += ",along_error_m,left_error_m,up_error_m";
   for (const char* name : {"estimate", "reference"})
     for (int r = 0; r < 3; ++r)
@@ -129,22 +144,17 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
   }
   std::string line;
   int number = 0;
-  const std::string legacy_header = csvHeader(false), header = csvHeader(true);
+  const std::string header = csvHeader();
+  std::vector<std::string> headers; // the header of each format
+  for (const std::size_t n : kFormats)
+    headers.push_back(firstColumns(header, n));
   while (std::getline(in, line)) {
     ++number;
-    if (line.empty() || line == legacy_header || line == header ||
-        line == header.substr(0, header.find(",confidence")) ||
-        line == header.substr(0, header.find(",search_converged")) ||
-        line == header.substr(0, header.find(",lead")) ||
-        line == header.substr(0, header.find(",free_turn_mi_loss")) ||
-        line == header.substr(0, header.find(",free_direction_turn_share")) ||
-        line == header.substr(0, header.find(",refusal")))
+    if (line.empty() || std::find(headers.begin(), headers.end(), line) != headers.end())
       continue;
     const std::vector<std::string> f = csvFields(line);
     try {
-      if (f.size() != kLegacyFields && f.size() != kPoseFields && f.size() != kVerdictFields &&
-          f.size() != kEvidenceFields && f.size() != kLeadFields && f.size() != kTurnLossFields &&
-          f.size() != kTurnShareFields && f.size() != kFields)
+      if (std::find(std::begin(kFormats), std::end(kFormats), f.size()) == std::end(kFormats))
         throw std::invalid_argument("field count");
       Row r;
       r.sequence = f[0];

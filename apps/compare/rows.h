@@ -63,9 +63,9 @@ struct Row {
   enum class TargetReuse { kNone, kPrepared, kKept } target_reuse = TargetReuse::kNone;
 };
 
-/** The CSV header; \a with_poses adds the travel-frame errors and both transforms. */
+/** The CSV header (every column writeRow() writes). */
 std::string
-csvHeader(bool with_poses);
+csvHeader();
 
 /** \a estimate - reference translation (target frame) along the reference motion, to its
  * left and up; NaN where the motion is too short or vertical. */
