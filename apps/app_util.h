@@ -5,6 +5,8 @@
  */
 #pragma once
 
+#include <pcl_mi/types.h>
+
 #include <Eigen/Core>
 
 #include <algorithm>
@@ -21,6 +23,21 @@
 
 namespace pcl_mi {
 namespace apps {
+
+/** What kept \a result from converging, in a few words: "failed", the verdict's refusal
+ * (refusalName()), or "the search capped" where the verdict passed the result but the
+ * search did not meet its tolerances; empty where it converged. */
+inline std::string
+notConvergedKind(const AlignmentResult& result)
+{
+  if (result.converged)
+    return {};
+  if (!result.error.empty())
+    return "failed";
+  if (result.verification.refusal != Refusal::None)
+    return refusalName(result.verification.refusal);
+  return "the search capped";
+}
 
 /** Splits \a s at \a sep, dropping empty items ("a,,b" -> {"a", "b"}). */
 inline std::vector<std::string>

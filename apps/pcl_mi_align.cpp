@@ -234,11 +234,27 @@ void
 printVerdict(const Registration& reg)
 {
   print_info("Converged: ");
-  print_value("%s\n", reg.hasConverged() ? "yes (search converged, result verified)"
-                                         : ("no: " + reg.getLastError()).c_str());
+  const pcl_mi::AlignmentResult& result = reg.getLastResult();
+  if (reg.hasConverged()) {
+    print_value("yes (search converged, result verified)\n");
+  }
+  else {
+    // getLastError() says "not converged: WHY; the final transformation is ...".
+    const std::string prefix = "not converged: ";
+    std::string why = reg.getLastError();
+    if (why.compare(0, prefix.size(), prefix) == 0)
+      why.erase(0, prefix.size());
+    print_value("no (%s)\n", pcl_mi::apps::notConvergedKind(result).c_str());
+    print_info("Why: ");
+    print_value("%s\n", why.c_str());
+  }
   print_info("Confidence: ");
   print_value("%.3f", reg.getConfidence());
-  print_info(" (probability of < 0.5 m and < 2 deg)\n");
+  print_info(" (probability of < 0.5 m and < 2 deg%s)\n",
+             result.verification.refusal == pcl_mi::Refusal::Degenerate
+                 ? ", from the evidence at the result: along the free direction the pose is "
+                   "only as good as the guess was there"
+                 : "");
   const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
   if (covariance.diagonal().maxCoeff() > 0.0) {
     const Eigen::Matrix<double, 6, 1> sd = covariance.diagonal().cwiseSqrt();

@@ -208,11 +208,7 @@ runMethod(const std::string& chain,
                                  v.observability_directions.col(weaker).tail<3>().norm()};
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
     if (!o.converged) {
-      const pcl_mi::AlignmentResult& last = mi->getLastResult();
-      o.refusal = !last.error.empty() ? "failed"
-                  : last.verification.refusal != pcl_mi::Refusal::None
-                      ? pcl_mi::refusalName(last.verification.refusal)
-                      : "the search capped";
+      o.refusal = apps::notConvergedKind(mi->getLastResult());
       o.reason = mi->getLastError();
     }
   }
