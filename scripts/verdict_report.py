@@ -10,8 +10,14 @@ where the search converged, at least 30 inliers, no free direction (contrast >= 
 confidence at least the threshold (src/verify/verification.cpp). The CSVs do not record the
 second-optimum check, so those figures count a few results as converged that the library
 refuses: their wrong shares are upper bounds.
+With -reference_check ROOT,DEG, the results of a pair list (`pcl_mi_compare -list`) are left
+out where the set's own check of its reference, ROOT/SET/pairs_overlap.csv (the
+foreign_lidar layout, one row per row of the list), says that a point-to-plane ICP started
+at the reference moves it by more than DEG degrees: there the reference itself is uncertain
+at the scale of the success bound. How many each set leaves out follows the first table.
 
-Usage: verdict_report.py [-success T,R] [-plot OUT.png] [-thresholds 0.95,0.9,...] A.csv B.csv ...
+Usage: verdict_report.py [-success T,R] [-plot OUT.png] [-thresholds 0.95,0.9,...]
+                         [-reference_check ROOT,DEG] A.csv B.csv ...
 """
 import csv
 import os
@@ -26,11 +32,29 @@ REFUSALS = ("degenerate", "too little shared surface", "a second optimum", "weak
             "the search capped", "failed")
 
 
+def consistent_references(rows, root, set_name, max_moves_deg):
+    """The rows of a pair list whose reference the set's ICP check moves by at most
+    max_moves_deg degrees, and how many were left out; every row where the set has no
+    check or the rows are not a pair list's."""
+    path = os.path.join(root, set_name, "pairs_overlap.csv")
+    if not os.path.exists(path):
+        return rows, 0
+    with open(path) as f:
+        checks = list(csv.DictReader(f))
+    kept = [r for r in rows if r["sequence"] != "list" or
+            float(checks[int(r["target"]) - 1]["icp_moves_deg"]) <= max_moves_deg]
+    return kept, len(rows) - len(kept)
+
+
 def main(argv):
     args, files, bound, plot, thresholds = argv[1:], [], (0.5, 2.0), None, []
+    reference_check = None
     i = 0
     while i < len(args):
-        if args[i] == "-thresholds":
+        if args[i] == "-reference_check":
+            root, degrees = args[i + 1].rsplit(",", 1)
+            reference_check, i = (root, float(degrees)), i + 2
+        elif args[i] == "-thresholds":
             thresholds, i = [float(x) for x in args[i + 1].split(",")], i + 2
         elif args[i] == "-success":
             bound, i = tuple(float(x) for x in args[i + 1].split(",")), i + 2
@@ -44,9 +68,16 @@ def main(argv):
     print("|---|---|---|---|---|---|")
     totals = np.zeros(4)
     held_back = []  # per set: right results that did not say converged, by kind of reason
+    left_out_lines = []
     for path in files:
         with open(path) as f:
             rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
+        if reference_check:
+            name = os.path.splitext(os.path.basename(path))[0]
+            rows, left_out = consistent_references(rows, reference_check[0], name,
+                                                   reference_check[1])
+            left_out_lines.append("%s: %d results left out (ICP from the reference moves "
+                                  "more than %g deg)" % (name, left_out, reference_check[1]))
         ok = np.array([float(r["translation_error_m"]) < bound[0] and
                        float(r["rotation_error_deg"]) < bound[1] for r in rows])
         said = np.array([r["converged"] == "1" for r in rows])
@@ -64,6 +95,8 @@ def main(argv):
     confidence, success = np.array(confidence), np.array(success)
     print("| all | %d | %d | %d | %d (%.2f %%) | |" % (totals[0], totals[1], totals[2], totals[3],
                                                   100.0 * totals[3] / max(totals[2], 1)))
+    if left_out_lines:
+        print("\n" + "\n".join(left_out_lines))
     if held_back:
         print("\nRight results that did not say converged, by kind of reason")
         print("| set | " + " | ".join(REFUSALS) + " |")
