@@ -160,11 +160,36 @@ PreparedProblem::prepare(std::string& error)
     return true;
   if (new_target && !backends_.choose(parameters_.backend, parameters_.sampling, error))
     return false;
+  if (!prepareLocalClouds(new_target, new_source, error))
+    return false;
+  if (new_target) {
+    // Refuse a too-fine resolution up front: no coarser level needs more voxels.
+    GridGeometry finest;
+    if (!makeGridGeometry(target_.points, parameters_.grid.resolution, finest, error,
+                          &target_.box)) {
+      // A derived resolution is the engine's choice, so it coarsens where the points that
+      // survive the outlier rule do not fit; each doubling shrinks the grid eightfold.
+      if (requested_.grid.resolution != 0.0 || derived_resolution_ <= 0.0)
+        return false;
+      error.clear();
+      derived_resolution_ *= 2.0;
+      resolveParameters();
+      return prepare(error);
+    }
+  }
+  buildFromLocalClouds(new_target, new_source);
+  target_dirty_ = false;
+  source_dirty_ = false;
+  ++preparations_;
+  return true;
+}
 
-  // The local clouds first: everything else is built from them. Only the changed clouds
-  // are tasks; a new source alone reads its points on the threads itself. A resolution too
-  // fine for a cloud is named as such before the outlier gap, which follows it, would
-  // split the cloud into fragments.
+bool
+PreparedProblem::prepareLocalClouds(bool new_target, bool new_source, std::string& error)
+{
+  // Only the changed clouds are tasks; a new source alone reads its points on the threads
+  // itself. A resolution too fine for a cloud is named as such before the outlier gap,
+  // which follows it, would split the cloud into fragments.
   const double resolution = parameters_.grid.resolution;
   const double gap = kOutlierGapVoxels * resolution;
   const int alone = new_target != new_source ? parameters_.num_threads : 1;
@@ -206,28 +231,20 @@ PreparedProblem::prepare(std::string& error)
     target_warning_ = describeOutliers("target", target_, gap);
   if (new_source)
     source_warning_ = describeOutliers("source", source_, gap);
-  const int num_levels = parameters_.grid.pyramid_levels;
+  return true;
+}
+
+void
+PreparedProblem::buildFromLocalClouds(bool new_target, bool new_source)
+{
   if (new_target) {
-    // Refuse a too-fine resolution up front: no coarser level needs more voxels.
-    GridGeometry finest;
-    if (!makeGridGeometry(target_.points, resolution, finest, error, &target_.box)) {
-      // A derived resolution is the engine's choice, so it coarsens where the points that
-      // survive the outlier rule do not fit; each doubling shrinks the grid eightfold.
-      if (requested_.grid.resolution != 0.0 || derived_resolution_ <= 0.0)
-        return false;
-      error.clear();
-      derived_resolution_ *= 2.0;
-      resolveParameters();
-      return prepare(error);
-    }
     levels_.clear();
-    levels_.resize(static_cast<std::size_t>(num_levels));
+    levels_.resize(static_cast<std::size_t>(parameters_.grid.pyramid_levels));
     distributions_.reset();
     coarser_distributions_.clear();
     shifted_distributions_.reset();
     target_axes_.setIdentity();
   }
-
   // Longest first: a free thread takes the next task. A new source alone (a scan against a
   // kept map) is the only task, and splits its summaries over the threads instead.
   std::vector<std::function<void()>> tasks;
@@ -241,10 +258,6 @@ PreparedProblem::prepare(std::string& error)
               [&](int task) { tasks[static_cast<std::size_t>(task)](); });
   if (new_target)
     levelTarget();
-
-  target_dirty_ = false;
-  source_dirty_ = false;
-  ++preparations_;
   // New levels need the samples; new samples need handing to the existing backends.
   for (std::size_t l = 0; l < levels_.size(); ++l) {
     Level& level = levels_[l];
@@ -253,7 +266,6 @@ PreparedProblem::prepare(std::string& error)
       if (slot)
         slot->setSource(level.samples);
   }
-  return true;
 }
 
 double

@@ -264,6 +264,16 @@ private:
   /** Resolves requested_ for the current target and marks what the change made stale. */
   void
   resolveParameters();
+  /** The local clouds of the new clouds (on the threads), checked: false (with \a error)
+   * for a resolution too fine for a cloud, too few usable points or no structure; the
+   * far-outlier warnings. */
+  bool
+  prepareLocalClouds(bool new_target, bool new_source, std::string& error);
+  /** Everything built from the new local clouds: the source's samples, the target's grids,
+   * distributions and up direction (concurrent tasks), the target leveled where it applies,
+   * and the samples handed to the levels' backends. */
+  void
+  buildFromLocalClouds(bool new_target, bool new_source);
   backend::ScoringBackend&
   backend(int level, int slot);
   void
