@@ -101,6 +101,41 @@ firstSearchOptions(const core::PreparedProblem& problem,
   return options;
 }
 
+/** How an alignment searches from its guess: the space and the first search's options. */
+struct SearchPlan {
+  core::SearchSpace space;
+  core::CoarseToFineOptions options;
+  bool about_sensor; ///< rotations turn the source about its sensor
+  bool leveled;      ///< the space runs along the target's up direction
+};
+
+/** The search from \a guess. Rotations turn the guessed source about its centroid, or, for a
+ * narrow field of view with wider tilt steps, about its sensor. A 360-degree pair whose up
+ * directions disagree is searched from the guess leveled, along the target's up: a tilted
+ * sensor's roll and pitch are what the simplex finds least well. A pair that agrees on an up
+ * far from z (a sensor mounted tilted) is searched along it too. */
+SearchPlan
+planSearch(const core::PreparedProblem& problem, const Eigen::Matrix4d& guess, int max_iterations)
+{
+  const Parameters& p = problem.parameters();
+  const core::LocalCloud& source = problem.source();
+  const bool narrow_view = problem.narrowView();
+  const bool tilts = narrow_view && p.search.narrow_view_tilt_step > 0.0;
+  const bool about_sensor =
+      tilts && source.centroid.norm() <= kSensorOriginRadii * source.rms_radius;
+  const Eigen::Vector3d turned_about = about_sensor ? Eigen::Vector3d::Zero() : source.centroid;
+  const Eigen::Vector3d pivot = (guess * turned_about.homogeneous()).head<3>();
+  const std::optional<core::Leveling> leveled =
+      core::levelingApplies(p) && !narrow_view
+          ? core::levelGuess(problem.sourceUp(), problem.targetUp(), guess, pivot)
+          : std::nullopt;
+  core::SearchSpace space = leveled ? core::SearchSpace(p, leveled->guess, pivot, leveled->axes)
+                                    : core::SearchSpace(p, guess, pivot);
+  core::CoarseToFineOptions options =
+      firstSearchOptions(problem, space, guess, tilts, max_iterations);
+  return {std::move(space), std::move(options), about_sensor, leveled.has_value()};
+}
+
 /** A 360-degree pair's second search, wider than the first (\a options): more headings,
  * the tilt steps of a handheld sensor and starts along x, on what the cap
  * (\a max_iterations) leaves. Its optima are judged as runners-up are. */
@@ -359,28 +394,11 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
     return result;
   }
 
-  // The search: rotations turn the guessed source about its centroid, or, for a narrow
-  // field of view with wider tilt steps, about its sensor.
   const Parameters& p = problem.parameters();
-  const core::LocalCloud& source = problem.source();
   const bool narrow_view = problem.narrowView();
-  const bool tilts = narrow_view && p.search.narrow_view_tilt_step > 0.0;
-  const bool about_sensor =
-      tilts && source.centroid.norm() <= kSensorOriginRadii * source.rms_radius;
-  const Eigen::Vector3d turned_about = about_sensor ? Eigen::Vector3d::Zero() : source.centroid;
-  const Eigen::Vector3d pivot = (guess * turned_about.homogeneous()).head<3>();
-  // A 360-degree pair whose up directions disagree is searched from the guess leveled, along
-  // the target's up: a tilted sensor's roll and pitch are what the simplex finds least well.
-  // A pair that agrees on an up far from z (a sensor mounted tilted) is searched along it too.
-  const std::optional<core::Leveling> leveled =
-      core::levelingApplies(p) && !narrow_view
-          ? core::levelGuess(problem.sourceUp(), problem.targetUp(), guess, pivot)
-          : std::nullopt;
-  const core::SearchSpace space = leveled
-                                      ? core::SearchSpace(p, leveled->guess, pivot, leveled->axes)
-                                      : core::SearchSpace(p, guess, pivot);
-  const core::CoarseToFineOptions options =
-      firstSearchOptions(problem, space, guess, tilts, max_iterations);
+  const SearchPlan plan = planSearch(problem, guess, max_iterations);
+  const core::SearchSpace& space = plan.space;
+  const core::CoarseToFineOptions& options = plan.options;
   // Normalised MI on the coarsest level only where finer levels follow it.
   const int coarsest = problem.levels() - 1;
   core::MutualInformationCosts costs(
@@ -392,8 +410,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   result.position_starts = options.position_starts;
   result.yaw_starts = options.yaw_index >= 0 ? static_cast<int>(options.yaw_starts.size()) : 0;
   result.scanned_starts = static_cast<int>(found.scanned_turns.size());
-  result.turned_about_sensor = about_sensor;
-  result.leveled = leveled.has_value();
+  result.turned_about_sensor = plan.about_sensor;
+  result.leveled = plan.leveled;
   result.iterations = found.iterations;
   result.evaluations = found.evaluations;
   result.search_converged = found.best.converged;
