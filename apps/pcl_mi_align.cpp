@@ -229,9 +229,10 @@ readPoses(int argc,
          readTransformFile(argc, argv, "-reference", reference, has_reference);
 }
 
-/** The verdict, the confidence and the standard deviations of the last alignment. */
+/** The verdict, the confidence and the standard deviations of the last alignment, which ran
+ * under the iteration cap \a max_iterations. */
 void
-printVerdict(const Registration& reg)
+printVerdict(const Registration& reg, int max_iterations)
 {
   print_info("Converged: ");
   const pcl_mi::AlignmentResult& result = reg.getLastResult();
@@ -239,11 +240,9 @@ printVerdict(const Registration& reg)
     print_value("yes (search converged, result verified)\n");
   }
   else {
-    // getLastError() says "not converged: WHY; the final transformation is ...".
-    const std::string prefix = "not converged: ";
-    std::string why = reg.getLastError();
-    if (why.compare(0, prefix.size(), prefix) == 0)
-      why.erase(0, prefix.size());
+    // getLastError()'s cause, with the cap named as this app takes it.
+    const std::string why = pcl_mi::notConvergedCause(
+        result, max_iterations, "-max_iterations " + std::to_string(max_iterations));
     print_value("no (%s)\n", pcl_mi::apps::notConvergedKind(result).c_str());
     print_info("Why: ");
     print_value("%s\n", why.c_str());
@@ -464,7 +463,7 @@ run(int argc, char** argv)
   print_value("%d", reg.getNumberOfEvaluations());
   print_info(", time: ");
   print_value("%.3f s\n", seconds);
-  printVerdict(reg);
+  printVerdict(reg, reg.getMaximumIterations());
   printSearchDetails(reg, parameters);
   if (pcl::console::find_switch(argc, argv, "-profile"))
     printProfile(reg, seconds);
