@@ -10,6 +10,7 @@
 #include "engine/prepared_problem.h"
 #include "engine/refine_optimum.h"
 #include "engine/search_space.h"
+#include "features/local_cloud.h"
 #include "features/source_samples.h"
 #include "features/voxel_grid.h"
 #include "refine/refinement.h"

@@ -4,6 +4,7 @@
  */
 #include "backend/scoring_backend.h"
 #include "features/feature_binning.h"
+#include "features/local_cloud.h"
 #include <pcl_mi/parameters.h>
 #include "features/source_samples.h"
 #include "features/up_direction.h"

@@ -4,7 +4,7 @@
 #include "refine/refinement.h"
 #include "features/source_samples.h"
 #include "features/up_direction.h"
-#include "features/voxel_grid.h"
+#include "features/local_cloud.h"
 #include "verify/pose_evidence.h"
 #include "verify/verification.h"
 

@@ -3,6 +3,8 @@
  */
 #include "engine/input_checks.h"
 
+#include "features/voxel_grid.h"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>

@@ -6,7 +6,7 @@
  */
 #pragma once
 
-#include "features/voxel_grid.h"
+#include "features/local_cloud.h"
 
 #include <Eigen/Core>
 

@@ -8,6 +8,7 @@
 #pragma once
 
 #include "engine/backend_factory.h"
+#include "features/local_cloud.h"
 #include "features/source_samples.h"
 #include "features/voxel_grid.h"
 #include "refine/refinement.h"
