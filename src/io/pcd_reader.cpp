@@ -6,10 +6,10 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "io/file_checks.h"
+#include "io/lzf.h"
 #include "io/readers.h"
 
 #include <pcl/PCLPointCloud2.h>
-#include <pcl/io/lzf.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -39,11 +39,6 @@ namespace {
 
 /** Largest point data a file may announce: PCLPointCloud2 holds it with 32-bit sizes. */
 constexpr std::uint64_t kMaxPointDataBytes = std::numeric_limits<std::uint32_t>::max();
-
-/** Most bytes LZF can expand one byte of input into: its longest back reference is 3 bytes
- * that stand for 264. A binary_compressed header claiming more is corrupt, and is refused
- * before its claim is allocated. */
-constexpr std::uint64_t kLzfMaxExpansion = 88;
 
 bool
 hasXyz(const pcl::PCLPointCloud2& blob)
@@ -397,12 +392,11 @@ readCompressedData(const std::string& path, const PcdHeader& h, std::ifstream& i
     return s.str();
   if (expected == 0)
     return {};
-  std::vector<char> packed(static_cast<std::size_t>(compressed));
-  if (!in.read(packed.data(), static_cast<std::streamsize>(packed.size())))
+  std::vector<std::uint8_t> packed(static_cast<std::size_t>(compressed));
+  if (!in.read(reinterpret_cast<char*>(packed.data()), static_cast<std::streamsize>(packed.size())))
     return "'" + path + "' is truncated";
   std::vector<std::uint8_t> columns(static_cast<std::size_t>(uncompressed));
-  if (pcl::lzfDecompress(packed.data(), static_cast<unsigned int>(compressed), columns.data(),
-                         static_cast<unsigned int>(uncompressed)) != uncompressed)
+  if (lzfDecompress(packed.data(), packed.size(), columns.data(), columns.size()) != uncompressed)
     return "'" + path + "' is corrupt: its LZF data does not unpack";
   packed = {};
   blob.data.resize(blob.row_step);
