@@ -10,7 +10,10 @@ namespace io {
 namespace detail {
 
 std::size_t
-lzfDecompress(const std::uint8_t* in, std::size_t in_bytes, std::uint8_t* out, std::size_t out_bytes)
+lzfDecompress(const std::uint8_t* in,
+              std::size_t in_bytes,
+              std::uint8_t* out,
+              std::size_t out_bytes)
 {
   std::size_t i = 0, o = 0; // read and write positions
   while (i < in_bytes) {

@@ -27,7 +27,10 @@ constexpr std::uint64_t kLzfMaxExpansion = 88;
  * (where the copy may overlap what it writes). PCL's own decompressor links all of pcl_io,
  * and with it VTK, into every program that reads a PCD file. */
 std::size_t
-lzfDecompress(const std::uint8_t* in, std::size_t in_bytes, std::uint8_t* out, std::size_t out_bytes);
+lzfDecompress(const std::uint8_t* in,
+              std::size_t in_bytes,
+              std::uint8_t* out,
+              std::size_t out_bytes);
 
 } // namespace detail
 } // namespace io
