@@ -10,8 +10,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 
 namespace {
 
@@ -157,6 +159,47 @@ TEST(CloudIo, ConvertsCoordinatesOfAnyNumericType)
   EXPECT_FLOAT_EQ(cloud[1].x, 3.125f);
   EXPECT_FLOAT_EQ(cloud[1].z, -9.0f);
   std::remove(path.c_str());
+}
+
+TEST(CloudIo, SavedPcdReadsBackInPclAndPclMi)
+{
+  // Organised (width x height), more than one write chunk (65536 points), a viewpoint.
+  pcl::PointCloud<pcl::PointXYZI> cloud(350, 200);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    cloud[i].x = 0.25f * static_cast<float>(i);
+    cloud[i].y = -static_cast<float>(i % 97);
+    cloud[i].z = 1e-3f * static_cast<float>(i % 13);
+    cloud[i].intensity = static_cast<float>(i % 256);
+  }
+  cloud[7].x = std::numeric_limits<float>::quiet_NaN(); // a beam without a return
+  cloud.is_dense = false;
+  cloud.sensor_origin_ = Eigen::Vector4f(1.0f, 2.0f, 3.0f, 0.0f);
+  const std::string path = testing::TempDir() + "pcl_mi_saved.pcd";
+  ASSERT_EQ(pcl_mi::io::savePcd(path, cloud), "");
+
+  pcl::PointCloud<pcl::PointXYZI> by_pcl;
+  ASSERT_EQ(pcl::io::loadPCDFile(path, by_pcl), 0);
+  ASSERT_EQ(by_pcl.width, cloud.width);
+  ASSERT_EQ(by_pcl.height, cloud.height);
+  EXPECT_EQ(by_pcl.sensor_origin_.head<3>(), cloud.sensor_origin_.head<3>());
+  pcl::PointCloud<pcl::PointXYZI> by_pcl_mi;
+  ASSERT_EQ(pcl_mi::io::loadCloud(path, by_pcl_mi), "");
+  ASSERT_EQ(by_pcl_mi.size(), cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    for (const auto* read : {&by_pcl, &by_pcl_mi}) {
+      const pcl::PointXYZI& p = (*read)[i];
+      if (i == 7) {
+        ASSERT_TRUE(std::isnan(p.x)) << i;
+        continue;
+      }
+      ASSERT_EQ(p.x, cloud[i].x) << i;
+      ASSERT_EQ(p.y, cloud[i].y) << i;
+      ASSERT_EQ(p.z, cloud[i].z) << i;
+      ASSERT_EQ(p.intensity, cloud[i].intensity) << i;
+    }
+  std::remove(path.c_str());
+
+  EXPECT_NE(pcl_mi::io::savePcd(testing::TempDir(), cloud), "") << "a directory is not a file";
 }
 
 TEST(CloudIo, MergedPcdReadsBackAsTheTwoCloudsColoured)

@@ -109,6 +109,12 @@ struct PoseError {
 PoseError
 poseError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& reference);
 
+/** \brief Writes \a cloud as a binary .pcd (fields x y z intensity, its width and height
+ * kept), as pcl::io::savePCDFileBinary() does but without PCL's io module. Returns an empty
+ * string on success, else a one-line reason. */
+std::string
+savePcd(const std::string& path, const pcl::PointCloud<pcl::PointXYZI>& cloud);
+
 /** \brief Writes \a target (grey) followed by \a aligned (red) as one binary XYZRGB .pcd
  * for pcl_viewer, in chunks: unlike building a merged pcl::PointCloud and saving it, this
  * holds no copy of the two clouds, which matters at millions of points. Returns an empty

@@ -149,6 +149,38 @@ poseError(const Eigen::Matrix4d& estimate, const Eigen::Matrix4d& reference)
 }
 
 std::string
+savePcd(const std::string& path, const pcl::PointCloud<pcl::PointXYZI>& cloud)
+{
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out)
+    return "cannot write '" + path + "'";
+  const Eigen::Vector4f& o = cloud.sensor_origin_;
+  const Eigen::Quaternionf& q = cloud.sensor_orientation_;
+  // The header PCL writes for PointXYZI, so PCL and pcl_viewer read it as their own.
+  out << "# .PCD v0.7 - Point Cloud Data file format\n"
+      << "VERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"
+      << "WIDTH " << cloud.width << "\nHEIGHT " << cloud.height << "\nVIEWPOINT " << o.x() << " "
+      << o.y() << " " << o.z() << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z()
+      << "\nPOINTS " << cloud.size() << "\nDATA binary\n";
+  // Records of four packed floats (a PointXYZI in memory is 32 bytes, with padding).
+  constexpr std::size_t kChunkPoints = 1 << 16;
+  std::vector<float> chunk;
+  chunk.reserve(4 * kChunkPoints);
+  for (std::size_t begin = 0; begin < cloud.size() && out; begin += kChunkPoints) {
+    const std::size_t end = std::min(cloud.size(), begin + kChunkPoints);
+    chunk.clear();
+    for (std::size_t i = begin; i < end; ++i)
+      chunk.insert(chunk.end(), {cloud[i].x, cloud[i].y, cloud[i].z, cloud[i].intensity});
+    out.write(reinterpret_cast<const char*>(chunk.data()),
+              static_cast<std::streamsize>(chunk.size() * sizeof(float)));
+  }
+  out.close();
+  if (!out)
+    return "cannot write '" + path + "' (disk full?)";
+  return {};
+}
+
+std::string
 saveMergedPcd(const std::string& path,
               const pcl::PointCloud<pcl::PointXYZI>& target,
               const pcl::PointCloud<pcl::PointXYZI>& aligned)
