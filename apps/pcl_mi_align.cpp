@@ -12,17 +12,17 @@
 #include <pcl/common/transforms.h>
 #include <pcl/console/parse.h>
 #include <pcl/console/print.h>
-#include <pcl/io/pcd_io.h>
 
 #ifdef PCL_MI_WITH_VISUALIZATION
-#include <pcl/visualization/pcl_visualizer.h>
+#include "align_view.h"
+
+#include <dlfcn.h>
+#include <unistd.h>
 #endif
 
 #include <Eigen/Geometry>
 
-#include <algorithm>
 #include <chrono>
-#include <tuple>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -89,7 +89,8 @@ parsePoseVector(int argc, char** argv, const char* flag, Eigen::Matrix<double, 6
 }
 
 /** Shows (or, with \a screenshot, saves) target + source under the guess on the left and
- * target + aligned source on the right, seen from above. */
+ * target + aligned source on the right, seen from above, with the viewer module
+ * (apps/align_view.cpp), loaded now: beside the app, else where it is installed. */
 bool
 showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
                 const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& before,
@@ -97,55 +98,31 @@ showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
                 const std::string& screenshot)
 {
 #ifdef PCL_MI_WITH_VISUALIZATION
-  using Handler = pcl::visualization::PointCloudColorHandlerCustom<pcl::PointXYZI>;
-  pcl::visualization::PCLVisualizer viewer("pcl_mi_align: before (guess) | after");
-  viewer.setSize(1600, 800);
-  int left = 0, right = 0;
-  viewer.createViewPort(0.0, 0.0, 0.5, 1.0, left);
-  viewer.createViewPort(0.5, 0.0, 1.0, 1.0, right);
-  for (const auto& [viewport, source, label] :
-       {std::make_tuple(left, before, "before (initial guess)"),
-        std::make_tuple(right, after, "after (pcl_mi)")}) {
-    const std::string id = std::to_string(viewport);
-    viewer.setBackgroundColor(1.0, 1.0, 1.0, viewport);
-    viewer.addPointCloud<pcl::PointXYZI>(target, Handler(target, 120, 120, 120),
-                                         "target" + id, viewport);
-    viewer.addPointCloud<pcl::PointXYZI>(source, Handler(source, 230, 40, 40), "source" + id,
-                                         viewport);
-    viewer.addText(std::string(label) + "   grey: target, red: source", 10, 10, 18, 0, 0, 0,
-                   "label" + id, viewport);
+  char exe[4096];
+  const ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+  const std::string app = n > 0 ? std::string(exe, static_cast<std::size_t>(n)) : std::string();
+  const std::string app_dir = app.substr(0, app.rfind('/') + 1);
+  std::string tried;
+  void* module = nullptr;
+  for (const std::string& path :
+       {app_dir + pcl_mi::apps::kViewModuleFile,
+        app_dir + PCL_MI_VIEW_MODULE_DIR + "/" + pcl_mi::apps::kViewModuleFile}) {
+    module = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (module)
+      break;
+    const char* why = dlerror();
+    tried += "\n  " + (why ? std::string(why) : path);
   }
-  // Framed to the target seen from above: its 2-98 % extent in x and y (stray far returns
-  // would shrink the scene to a dot), centred, at the height that fits it in a viewport.
-  std::vector<float> xs, ys;
-  for (const auto& p : *target)
-    if (std::isfinite(p.x) && std::isfinite(p.y)) {
-      xs.push_back(p.x);
-      ys.push_back(p.y);
-    }
-  float centre[2] = {0.0f, 0.0f}, half = 50.0f;
-  if (!xs.empty()) {
-    half = 0.0f;
-    std::vector<float>* axes[2] = {&xs, &ys};
-    for (int a = 0; a < 2; ++a) {
-      std::vector<float>& v = *axes[a];
-      std::sort(v.begin(), v.end());
-      const float lo = v[v.size() / 50], hi = v[v.size() - 1 - v.size() / 50];
-      centre[a] = 0.5f * (lo + hi);
-      half = std::max(half, 0.5f * (hi - lo));
-    }
+  const auto show = module ? reinterpret_cast<pcl_mi::apps::ShowBeforeAfter>(
+                                 dlsym(module, pcl_mi::apps::kShowBeforeAfterSymbol))
+                           : nullptr;
+  if (!show) {
+    print_error("pcl_mi_align: cannot load the viewer module for -view and -screenshot:%s\n",
+                module ? "\n  it has no entry point" : tried.c_str());
+    return false;
   }
-  // VTK's default view angle is 30 degrees; 10 % margin.
-  const double height = 1.1 * half / std::tan(15.0 * M_PI / 180.0) + 1.0;
-  viewer.setCameraPosition(centre[0], centre[1], height, centre[0], centre[1], 0, 0, 1, 0);
-  if (!screenshot.empty()) {
-    viewer.spinOnce(100);
-    viewer.saveScreenshot(screenshot);
-  }
-  else {
-    viewer.spin();
-  }
-  return true;
+  // The module stays loaded until the app exits: VTK registers handlers at exit.
+  return show(target, before, after, screenshot);
 #else
   (void)target, (void)before, (void)after, (void)screenshot;
   print_error("pcl_mi_align: built without PCL's visualization module; -view and "
@@ -345,18 +322,9 @@ writeClouds(const std::string& aligned_path,
             const Cloud& target,
             const Cloud& aligned)
 {
-  // PCL's writer throws pcl::IOException on a path it cannot open.
-  bool written = false;
-  try {
-    written = pcl::io::savePCDFileBinary(aligned_path, aligned) >= 0;
-  }
-  catch (const std::exception&) {
-  }
-  if (!written) {
-    print_error("pcl_mi_align: cannot write '%s'\n", aligned_path.c_str());
-    return false;
-  }
-  const std::string write_error = pcl_mi::io::saveMergedPcd(merged_path, target, aligned);
+  std::string write_error = pcl_mi::io::savePcd(aligned_path, aligned);
+  if (write_error.empty())
+    write_error = pcl_mi::io::saveMergedPcd(merged_path, target, aligned);
   if (!write_error.empty())
     print_error("pcl_mi_align: %s\n", write_error.c_str());
   return write_error.empty();
