@@ -121,7 +121,7 @@ showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
                 module ? "\n  it has no entry point" : tried.c_str());
     return false;
   }
-  // The module stays loaded until the app exits: VTK registers handlers at exit.
+  // Never unloaded: the viewer runs once, at the end of the app.
   return show(target, before, after, screenshot);
 #else
   (void)target, (void)before, (void)after, (void)screenshot;
