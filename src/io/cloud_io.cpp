@@ -18,6 +18,7 @@
 #include <sstream>
 #include <new>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace pcl_mi {
@@ -36,6 +37,46 @@ lowerExtension(const std::string& path)
     return static_cast<char>(std::tolower(c));
   });
   return ext;
+}
+
+/** Writes the header PCL writes for a binary PCD of one-count, 4-byte \a fields of \a types
+ * ("x y z rgb", "F F F U"), so that PCL and pcl_viewer read the file as their own. */
+void
+writePcdHeader(std::ostream& out,
+               const char* fields,
+               const char* types,
+               std::size_t width,
+               std::size_t height,
+               std::size_t points,
+               const std::string& viewpoint)
+{
+  out << "# .PCD v0.7 - Point Cloud Data file format\n"
+      << "VERSION 0.7\nFIELDS " << fields << "\nSIZE 4 4 4 4\nTYPE " << types
+      << "\nCOUNT 1 1 1 1\nWIDTH " << width << "\nHEIGHT " << height << "\nVIEWPOINT "
+      << viewpoint << "\nPOINTS " << points << "\nDATA binary\n";
+}
+
+/** Appends \a cloud to \a out as the packed records \a record(point) gives, a chunk at a
+ * time: unlike saving a converted copy of the cloud, this holds none, which matters at
+ * millions of points. */
+template <typename Record, typename MakeRecord>
+void
+writeRecords(std::ostream& out,
+             const pcl::PointCloud<pcl::PointXYZI>& cloud,
+             const MakeRecord& record)
+{
+  static_assert(sizeof(Record) == 16, "PCD records of four 4-byte fields are 16 packed bytes");
+  constexpr std::size_t kChunkPoints = 1 << 16;
+  std::vector<Record> chunk;
+  chunk.reserve(std::min(cloud.size(), kChunkPoints));
+  for (std::size_t begin = 0; begin < cloud.size() && out; begin += kChunkPoints) {
+    const std::size_t end = std::min(cloud.size(), begin + kChunkPoints);
+    chunk.clear();
+    for (std::size_t i = begin; i < end; ++i)
+      chunk.push_back(record(cloud[i]));
+    out.write(reinterpret_cast<const char*>(chunk.data()),
+              static_cast<std::streamsize>(chunk.size() * sizeof(Record)));
+  }
 }
 
 } // namespace
@@ -156,24 +197,18 @@ savePcd(const std::string& path, const pcl::PointCloud<pcl::PointXYZI>& cloud)
     return "cannot write '" + path + "'";
   const Eigen::Vector4f& o = cloud.sensor_origin_;
   const Eigen::Quaternionf& q = cloud.sensor_orientation_;
-  // The header PCL writes for PointXYZI, so PCL and pcl_viewer read it as their own.
-  out << "# .PCD v0.7 - Point Cloud Data file format\n"
-      << "VERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"
-      << "WIDTH " << cloud.width << "\nHEIGHT " << cloud.height << "\nVIEWPOINT " << o.x() << " "
-      << o.y() << " " << o.z() << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z()
-      << "\nPOINTS " << cloud.size() << "\nDATA binary\n";
-  // Records of four packed floats (a PointXYZI in memory is 32 bytes, with padding).
-  constexpr std::size_t kChunkPoints = 1 << 16;
-  std::vector<float> chunk;
-  chunk.reserve(4 * kChunkPoints);
-  for (std::size_t begin = 0; begin < cloud.size() && out; begin += kChunkPoints) {
-    const std::size_t end = std::min(cloud.size(), begin + kChunkPoints);
-    chunk.clear();
-    for (std::size_t i = begin; i < end; ++i)
-      chunk.insert(chunk.end(), {cloud[i].x, cloud[i].y, cloud[i].z, cloud[i].intensity});
-    out.write(reinterpret_cast<const char*>(chunk.data()),
-              static_cast<std::streamsize>(chunk.size() * sizeof(float)));
-  }
+  std::ostringstream viewpoint;
+  viewpoint << o.x() << " " << o.y() << " " << o.z() << " " << q.w() << " " << q.x() << " "
+            << q.y() << " " << q.z();
+  writePcdHeader(out, "x y z intensity", "F F F F", cloud.width, cloud.height, cloud.size(),
+                 viewpoint.str());
+  // Four packed floats a point (a PointXYZI in memory is 32 bytes, with padding).
+  struct Record {
+    float x, y, z, intensity;
+  };
+  writeRecords<Record>(out, cloud, [](const pcl::PointXYZI& p) {
+    return Record{p.x, p.y, p.z, p.intensity};
+  });
   out.close();
   if (!out)
     return "cannot write '" + path + "' (disk full?)";
@@ -189,31 +224,17 @@ saveMergedPcd(const std::string& path,
   if (!out)
     return "cannot open '" + path + "' for writing";
   const std::size_t total = target.size() + aligned.size();
-  // The header PCL writes for PointXYZRGB, so PCL and pcl_viewer read it as their own.
-  out << "# .PCD v0.7 - Point Cloud Data file format\n"
-      << "VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
-      << "WIDTH " << total << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << total
-      << "\nDATA binary\n";
-  constexpr std::size_t kChunkPoints = 1 << 16;
+  writePcdHeader(out, "x y z rgb", "F F F U", total, 1, total, "0 0 0 1 0 0 0");
   struct Record {
     float x, y, z;
     std::uint32_t rgba;
   };
-  static_assert(sizeof(Record) == 16, "PCD records are 16 packed bytes");
-  std::vector<Record> chunk;
-  chunk.reserve(kChunkPoints);
-  auto write = [&](const pcl::PointCloud<pcl::PointXYZI>& cloud, std::uint32_t rgba) {
-    for (std::size_t begin = 0; begin < cloud.size() && out; begin += kChunkPoints) {
-      const std::size_t end = std::min(cloud.size(), begin + kChunkPoints);
-      chunk.clear();
-      for (std::size_t i = begin; i < end; ++i)
-        chunk.push_back({cloud[i].x, cloud[i].y, cloud[i].z, rgba});
-      out.write(reinterpret_cast<const char*>(chunk.data()),
-                static_cast<std::streamsize>(chunk.size() * sizeof(Record)));
-    }
-  };
-  write(target, 0xFFAAAAAAu);  // grey (170, 170, 170), opaque
-  write(aligned, 0xFFE62828u); // red (230, 40, 40), opaque
+  // The target grey (170, 170, 170), the aligned source red (230, 40, 40), both opaque.
+  for (const auto& [cloud, rgba] :
+       {std::make_pair(&target, 0xFFAAAAAAu), std::make_pair(&aligned, 0xFFE62828u)})
+    writeRecords<Record>(out, *cloud, [rgba = rgba](const pcl::PointXYZI& p) {
+      return Record{p.x, p.y, p.z, rgba};
+    });
   out.close();
   if (!out)
     return "cannot write '" + path + "' (disk full?)";
