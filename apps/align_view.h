@@ -24,9 +24,5 @@ using ShowBeforeAfter = bool (*)(const ViewCloud::ConstPtr& target,
 
 constexpr const char* kShowBeforeAfterSymbol = "pcl_mi_show_before_after";
 
-/** The module's file name, beside the app in the build tree and under the library
- * directory's pcl_mi/ once installed. */
-constexpr const char* kViewModuleFile = "libpcl_mi_align_view.so";
-
 } // namespace apps
 } // namespace pcl_mi

@@ -105,8 +105,8 @@ showBeforeAfter(const pcl::PointCloud<pcl::PointXYZI>::ConstPtr& target,
   std::string tried;
   void* module = nullptr;
   for (const std::string& path :
-       {app_dir + pcl_mi::apps::kViewModuleFile,
-        app_dir + PCL_MI_VIEW_MODULE_DIR + "/" + pcl_mi::apps::kViewModuleFile}) {
+       {app_dir + PCL_MI_VIEW_MODULE_FILE,
+        app_dir + PCL_MI_VIEW_MODULE_DIR + "/" + PCL_MI_VIEW_MODULE_FILE}) {
     module = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (module)
       break;
