@@ -14,10 +14,13 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <thread>
 #include <tuple>
+#include <type_traits>
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 using pcl_mi::Feature;
@@ -590,6 +593,106 @@ TEST(Registration, CloudsReadInPlaceGiveTheEnginesResultForCopies)
   core.setSource(selected);
   const pcl_mi::AlignmentResult selected_copy = core.align(Eigen::Matrix4d::Identity());
   EXPECT_EQ(reg.getFinalTransformation(), selected_copy.transformation.cast<float>());
+}
+
+/** The source under \a transform as pcl::Registration::align() and pcl::transformPointCloud()
+ * give it: copied through \a indices, the fourth coordinate 1, moved where finite. */
+template <typename Point, typename Matrix>
+pcl::PointCloud<Point>
+movedAsPcl(const pcl::PointCloud<Point>& source, const pcl::Indices& indices, const Matrix& transform)
+{
+  pcl::PointCloud<Point> moved;
+  for (const pcl::index_t i : indices)
+    moved.push_back(source[static_cast<std::size_t>(i)]);
+  moved.is_dense = source.is_dense;
+  for (Point& p : moved)
+    p.data[3] = 1.0f;
+  pcl::transformPointCloud(moved, moved, transform);
+  return moved;
+}
+
+/** Whether every point of \a a has the bits of \a b's in x, y, z, the fourth coordinate
+ * and (for PointXYZI) the intensity: NaNs included. */
+template <typename Point>
+bool
+sameBits(const pcl::PointCloud<Point>& a, const pcl::PointCloud<Point>& b)
+{
+  constexpr std::size_t floats = std::is_same<Point, pcl::PointXYZI>::value ? 5 : 4;
+  if (a.size() != b.size())
+    return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (std::memcmp(a[i].data, b[i].data, floats * sizeof(float)) != 0)
+      return false;
+  return true;
+}
+
+TEST(Registration, TheOutputIsTheSourceMovedAsPclMovesIt)
+{
+  // Every 8th point of a scan, some of them NaN, each with its own intensity.
+  using IntensityCloud = pcl::PointCloud<pcl::PointXYZI>;
+  auto source = pcl::make_shared<IntensityCloud>();
+  auto target = pcl::make_shared<IntensityCloud>();
+  const Cloud::Ptr scan_9 = test_data::loadScan("00", 9), scan_0 = test_data::loadScan("00", 0);
+  for (std::size_t i = 0; i < scan_9->size(); i += 8) {
+    pcl::PointXYZI p;
+    p.getVector3fMap() = (*scan_9)[i].getVector3fMap();
+    p.intensity = static_cast<float>(i);
+    if (i % 800 == 0)
+      p.x = std::numeric_limits<float>::quiet_NaN();
+    source->push_back(p);
+  }
+  source->is_dense = false;
+  source->header.frame_id = "velodyne";
+  pcl::copyPointCloud(*scan_0, *target);
+  pcl::Indices all(source->size()), every_third;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    all[i] = static_cast<pcl::index_t>(i);
+    if (i % 3 == 0)
+      every_third.push_back(all[i]);
+  }
+
+  pcl::MutualInformationRegistration<pcl::PointXYZI> reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  const Eigen::Matrix4f guess = test_data::planarMotion(1.0, 0.5, 0.05).cast<float>();
+  IntensityCloud aligned;
+  reg.align(aligned, guess);
+  EXPECT_TRUE(sameBits(aligned, movedAsPcl(*source, all, reg.getFinalTransformation())));
+  EXPECT_EQ(aligned.width, source->width);
+  EXPECT_EQ(aligned.height, source->height);
+  EXPECT_FALSE(aligned.is_dense);
+  EXPECT_EQ(aligned.header.frame_id, "velodyne");
+
+  // Through the base class, whose align() copies the source first: the same points.
+  pcl::Registration<pcl::PointXYZI, pcl::PointXYZI>& base = reg;
+  IntensityCloud through_base;
+  base.align(through_base, guess);
+  EXPECT_TRUE(sameBits(through_base, aligned));
+
+  // Indices: the selected points, in their order, as one row.
+  reg.setIndices(pcl::make_shared<pcl::Indices>(every_third));
+  IntensityCloud selected;
+  reg.align(selected, guess);
+  EXPECT_TRUE(sameBits(selected, movedAsPcl(*source, every_third, reg.getFinalTransformation())));
+  EXPECT_EQ(selected.width, every_third.size());
+  EXPECT_EQ(selected.height, 1u);
+
+  // The source itself as the output: moved in place.
+  auto in_place = pcl::make_shared<IntensityCloud>(*source);
+  reg.setIndices(pcl::IndicesPtr());
+  reg.setInputSource(in_place);
+  reg.align(*in_place, guess);
+  EXPECT_TRUE(sameBits(*in_place, movedAsPcl(*source, all, reg.getFinalTransformation())));
+
+  // Scalar = double moves with a double matrix.
+  Cloud::Ptr xyz = pcl::make_shared<Cloud>();
+  pcl::copyPointCloud(*source, *xyz);
+  pcl::MutualInformationRegistration<pcl::PointXYZ, pcl::PointXYZ, double> precise;
+  precise.setInputSource(xyz);
+  precise.setInputTarget(scan_0);
+  Cloud precise_aligned;
+  precise.align(precise_aligned, guess.cast<double>());
+  EXPECT_TRUE(sameBits(precise_aligned, movedAsPcl(*xyz, all, precise.getFinalTransformation())));
 }
 
 TEST(Registration, ACloudGrownInPlaceAfterItWasSetIsReadAgain)
