@@ -94,6 +94,9 @@ TEST(Verification, RealPairConvergesWithHighConfidence)
   EXPECT_GT(covariance.diagonal().minCoeff(), 0.0);
   // A street scan constrains every direction.
   EXPECT_GT(reg.getVerification().observability[0], 1e-3);
+  // A converged result is not restarted.
+  EXPECT_TRUE(std::isnan(reg.getVerification().restart_turn_deg));
+  EXPECT_TRUE(std::isnan(reg.getVerification().restart_shift));
 }
 
 TEST(Verification, FlatFloorIsDegenerateAlongItsPlane)

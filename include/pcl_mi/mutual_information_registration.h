@@ -547,7 +547,9 @@ public:
    * true pose, from the evidence at the result, calibrated on real scans of several sensors
    * (docs/method.md, "The verdict"); 0 after a failure. hasConverged() requires at least
    * 0.95. A result the verdict refuses for another reason (a free direction, a capped
-   * search) keeps it: read it together with hasConverged(). */
+   * search) keeps it, unless restarts of the refinement around it end apart
+   * (Verification::restart_turn_deg): then it is the share of such results that were
+   * right. Read it together with hasConverged(). */
   double
   getConfidence() const
   {

@@ -177,7 +177,9 @@ refusalName(Refusal refusal);
  * vectorisation flags than the library (e.g. -march=native) shares this layout. */
 struct Verification {
   /** Probability that the result is within 0.5 m and 2 degrees of the true pose, from a
-   * logistic model of the evidence below fitted on real scans of several sensors. */
+   * logistic model of the evidence below fitted on real scans of several sensors; for a
+   * refused result that restarts of the refinement find unsteady (restart_turn_deg), the
+   * share of such results that were right. */
   double confidence = 0.0;
   /** Empty when the result passes the reliability test, otherwise why not. */
   std::string reason;
@@ -229,6 +231,14 @@ struct Verification {
    * across, as a share of its own; negative where another scores higher, which the verdict
    * does not pass, 1 where the searches found none (docs/method.md, "Shifted optima"). */
   double lead = std::numeric_limits<double>::quiet_NaN();
+  /** Results the reliability test refuses only, NaN otherwise: the largest turn (degrees)
+   * and shift (of the source's centroid, in the clouds' units) from the result to where the
+   * refinement ends when restarted from the result turned 2 degrees either way about each
+   * axis of the target. From 1 degree or 0.25 on, half the success bound, the result is
+   * unsteady, and its confidence is the share of such results that were right
+   * (docs/method.md, "The verdict"). */
+  double restart_turn_deg = std::numeric_limits<double>::quiet_NaN();
+  double restart_shift = std::numeric_limits<double>::quiet_NaN();
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It
    * treats the samples as independent; RegistrationCore::covarianceScale() says how much

@@ -13,6 +13,7 @@
 #include "engine/prepared_problem.h"
 #include "engine/search_space.h"
 #include "engine/shifted_optimum.h"
+#include "engine/steadiness.h"
 #include "features/mutual_information.h"
 #include "search/coarse_to_fine.h"
 #include "util/stage_clock.h"
@@ -446,6 +447,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
                                  finest_normalized_mi);
   if (narrow_view)
     lookAcross(problem, space, impl_->scratch, result, finest_normalized_mi);
+  core::judgeSteadiness(problem, space, result);
   impl_->last.pose = result.transformation;
   impl_->last.covariance = result.verification.covariance;
   impl_->last.preparation = problem.preparations();

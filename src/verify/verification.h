@@ -23,6 +23,11 @@ namespace core {
  * when it is right with a probability of at least 95 %. */
 constexpr double kReliableConfidence = 0.95;
 
+/** Confidence of a refused result that restarts of the refinement find unsteady
+ * (judgeSteadiness()): the share of such results that were right over the shared sets'
+ * results (docs/benchmarks.md, "The confidence of unsteady results"). */
+constexpr double kUnsteadyConfidence = 0.06;
+
 /** Fewest inliers (source samples on a target surface) that can hold six degrees of
  * freedom with room to spare; a result with fewer does not pass. */
 constexpr std::size_t kMinimumInliers = 30;

@@ -1,0 +1,66 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "engine/steadiness.h"
+
+#include "engine/refine_optimum.h"
+#include "util/stage_clock.h"
+#include "verify/verification.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+/** Half the success bound of the confidence (0.5 m and 2 degrees): a restart that ends this
+ * far from the result or farther makes it unsteady. */
+constexpr double kSteadyTurnDeg = 1.0;
+constexpr double kSteadyShift = 0.25;
+
+} // namespace
+
+void
+judgeSteadiness(PreparedProblem& problem, const SearchSpace& space, AlignmentResult& result)
+{
+  const Parameters& p = problem.parameters();
+  if (result.converged || p.refinement.method != Refinement::PointToDistribution)
+    return;
+  StageClock clock;
+  const int coarser_stages = problem.narrowView() ? p.refinement.narrow_view_stages : 0;
+  const LocalPose at = problem.toLocal(result.transformation);
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  double turn_deg = 0.0, shift = 0.0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int sign = -1; sign <= 1; sign += 2) {
+      const Eigen::Matrix3d turned =
+          Eigen::AngleAxisd(sign * kRestartTurnDeg * M_PI / 180.0, Eigen::Vector3d::Unit(axis))
+              .toRotationMatrix() *
+          at.rotation;
+      const RefinedOptimum restart = refineOptimum(
+          problem, space, problem.fromLocal({turned, at.translation}), coarser_stages);
+      if (!restart.accepted) {
+        turn_deg = shift = kInfinity;
+        continue;
+      }
+      const LocalPose end = problem.toLocal(restart.transformation);
+      turn_deg = std::max(turn_deg, Eigen::AngleAxisd(end.rotation * at.rotation.transpose())
+                                            .angle() *
+                                        180.0 / M_PI);
+      shift = std::max(shift, (end.translation - at.translation).norm());
+    }
+  Verification& v = result.verification;
+  v.restart_turn_deg = turn_deg;
+  v.restart_shift = shift;
+  if (!(turn_deg < kSteadyTurnDeg && shift < kSteadyShift))
+    v.confidence = kUnsteadyConfidence;
+  clock.end(result.stages, "steadiness", 6);
+}
+
+} // namespace core
+} // namespace pcl_mi
