@@ -30,7 +30,9 @@ CALIBRATION_KNOTS (the map of src/verify/verification.cpp): its ends stay where 
 and the values at the inner knots are a logistic regression of success on the map's hat
 functions, fitted over the pooled results (each result weighs the same, as in the
 reliability diagram), penalised for bends and for straying from the identity. Every verdict
-stays as it is. A set named "unrelated" (scripts/unrelated_pairs.py) takes part in the fit
+stays as it is. Refused results that restarts of the refinement found unsteady (the CSVs'
+restart columns; src/engine/steadiness.cpp) take a fixed confidence instead and stay out of
+the fit; the script prints how many of them were right. A set named "unrelated" (scripts/unrelated_pairs.py) takes part in the fit
 and is left out of the acceptance diagram; its mean confidence is printed.
 
 Usage: fit_confidence.py [-success T,R]
@@ -57,6 +59,11 @@ CALIBRATION_SMOOTHNESS = 0.3
 CALIBRATION_RIDGE = 1.0
 # The lead's clamp (src/verify/verification.cpp).
 LEAD_CLAMP = (-0.3, 0.5)
+# A refused result whose restarts of the refinement end this far apart or farther (degrees,
+# metres; src/engine/steadiness.cpp) is unsteady and takes this confidence
+# (kUnsteadyConfidence, src/verify/verification.h).
+STEADY_LIMITS = (1.0, 0.25)
+UNSTEADY_CONFIDENCE = 0.06
 
 
 def passes_gate(row):
@@ -83,6 +90,18 @@ def load_lead(path):
     with open(path) as f:
         rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
     return np.array([float(r.get("lead") or "nan") for r in rows])
+
+
+def load_unsteady(path):
+    """Per MI row of \a path, whether it is a refused result its restarts found unsteady;
+    false where the file has no restart columns."""
+    with open(path) as f:
+        rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
+    spread = lambda r, k: float(r.get(k) or "nan")
+    return np.array([r["converged"] == "0" and not np.isnan(spread(r, "restart_turn_deg")) and
+                     not (spread(r, "restart_turn_deg") < STEADY_LIMITS[0] and
+                          spread(r, "restart_shift_m") < STEADY_LIMITS[1]) for r in rows],
+                    dtype=bool)
 
 
 def logit_of(model, x, lead):
@@ -273,23 +292,37 @@ def fit_calibration(z, y):
     return values
 
 
-def calibration(sets, leads, model):
-    """The -calibration mode."""
-    z = {n: logit_of(model, sets[n][0], leads[n]) for n in sets}
-    y = {n: sets[n][1].astype(float) for n in sets}
+def calibration(sets, leads, unsteady, model):
+    """The -calibration mode. The unsteady results take UNSTEADY_CONFIDENCE and stay out of
+    the fit."""
+    z = {n: logit_of(model, sets[n][0], leads[n])[~unsteady[n]] for n in sets}
+    y = {n: sets[n][1].astype(float)[~unsteady[n]] for n in sets}
     values = fit_calibration(np.concatenate(list(z.values())), np.concatenate(list(y.values())))
     print("knots  " + " ".join("%6.2f" % v for v in CALIBRATION_KNOTS))
     print("values " + " ".join("%6.2f" % v for v in values))
     accepted = [n for n in sets if n != "unrelated"]
-    p = lambda names, f: np.concatenate([1.0 / (1.0 + np.exp(-f(n, z[n]))) for n in names])
+    for names, title in ((accepted, "the sets"), (["unrelated"], "unrelated")):
+        u = np.concatenate([sets[n][1][unsteady[n]] for n in names if n in sets] or [[]])
+        print("unsteady results (%s): %d, right %d (confidence %.2f)" % (
+            title, len(u), int(np.sum(u)), UNSTEADY_CONFIDENCE))
+
+    def p(names, f):
+        out = []
+        for n in names:
+            q = np.full(len(unsteady[n]), UNSTEADY_CONFIDENCE)
+            q[~unsteady[n]] = 1.0 / (1.0 + np.exp(-f(n, z[n])))
+            out.append(q)
+        return np.concatenate(out)
+    y = {n: sets[n][1].astype(float) for n in sets}
     y_accepted = np.concatenate([y[n] for n in accepted])
     print_reliability("Before", p(accepted, lambda n, v: v), y_accepted)
     print_reliability("In sample", p(accepted, lambda n, v: calibrate(values, v)), y_accepted)
     held_out = {}
     for name in sets:
         others = [n for n in sets if n != name]
-        held_out[name] = fit_calibration(np.concatenate([z[n] for n in others]),
-                                         np.concatenate([y[n] for n in others]))
+        held_out[name] = fit_calibration(
+            np.concatenate([z[n] for n in others]),
+            np.concatenate([y[n][~unsteady[n]] for n in others]))
     print_reliability("Each set left out",
                       p(accepted, lambda n, v: calibrate(held_out[n], v)), y_accepted)
     if "unrelated" in sets:
@@ -320,7 +353,9 @@ def main(argv):
         name = lambda p: os.path.splitext(os.path.basename(p))[0]
         sets = {name(p): load(p, bound) for p in args}
         leads = {name(p): load_lead(p) for p in args}
-        return (lead_term if mode == "-lead" else calibration)(sets, leads, model)
+        if mode == "-lead":
+            return lead_term(sets, leads, model)
+        return calibration(sets, leads, {name(p): load_unsteady(p) for p in args}, model)
     if model is not None:
         return recalibrate({os.path.splitext(os.path.basename(p))[0]: load(p, bound)
                             for p in args}, model)

@@ -207,6 +207,8 @@ runMethod(const std::string& chain,
                                  std::fmin(v.free_turn_mi_loss[0], v.free_turn_mi_loss[1]),
                                  v.observability_directions.col(weaker).tail<3>().norm()};
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
+    o.restart_turn_deg = v.restart_turn_deg;
+    o.restart_shift = v.restart_shift;
     if (!o.converged) {
       o.refusal = apps::notConvergedKind(mi->getLastResult());
       o.reason = mi->getLastError();

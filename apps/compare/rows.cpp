@@ -24,11 +24,12 @@ constexpr std::size_t kEvidenceFields = kVerdictFields + 7; // before the lead
 constexpr std::size_t kLeadFields = kEvidenceFields + 1;
 constexpr std::size_t kTurnLossFields = kLeadFields + 1; // the free turns' MI loss
 constexpr std::size_t kTurnShareFields = kTurnLossFields + 1; // the weaker direction's turn share
-constexpr std::size_t kFields = kTurnShareFields + 2; // MI's refusal and its reason
+constexpr std::size_t kReasonFields = kTurnShareFields + 2; // MI's refusal and its reason
+constexpr std::size_t kFields = kReasonFields + 2; // the restarts' turn and shift
 /** The column counts of the formats readRows() accepts, each the first columns of the next. */
-constexpr std::size_t kFormats[] = {kLegacyFields,   kPoseFields,     kVerdictFields,
-                                    kEvidenceFields, kLeadFields,     kTurnLossFields,
-                                    kTurnShareFields, kFields};
+constexpr std::size_t kFormats[] = {kLegacyFields,    kPoseFields,     kVerdictFields,
+                                    kEvidenceFields,  kLeadFields,     kTurnLossFields,
+                                    kTurnShareFields, kReasonFields,   kFields};
 
 /** The first \a n columns of the CSV line \a line. */
 std::string
@@ -90,6 +91,7 @@ csvHeader()
   h += ",confidence,sd_x_m,sd_y_m,sd_z_m,sd_roll_deg,sd_pitch_deg,sd_yaw_deg";
   h += ",search_converged,inliers,inlier_fraction,peak_contrast,weakest_contrast,normalized_mi,"
        "free_direction_contrast,lead,free_turn_mi_loss,free_direction_turn_share,refusal,reason";
+  h += ",restart_turn_deg,restart_shift_m";
   return h;
 }
 
@@ -130,7 +132,8 @@ writeRow(std::ostream& out, const Row& r)
     out << ',' << sd;
   for (double e : r.evidence)
     out << ',' << e;
-  out << ',' << r.refusal << ',' << quoted(r.reason) << '\n';
+  out << ',' << r.refusal << ',' << quoted(r.reason) << ',' << r.restart_turn_deg << ','
+      << r.restart_shift << '\n';
 }
 
 /** Reads rows written by writeRow(); false with \a error on a malformed file. */
@@ -189,9 +192,13 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
         for (double& e : r.evidence)
           if (k < kTurnShareFields && k < f.size())
             e = std::stod(f[k++]);
-        if (f.size() == kFields) {
-          r.refusal = f[kFields - 2];
-          r.reason = f[kFields - 1];
+        if (f.size() >= kReasonFields) {
+          r.refusal = f[kTurnShareFields];
+          r.reason = f[kTurnShareFields + 1];
+        }
+        if (f.size() >= kFields) {
+          r.restart_turn_deg = std::stod(f[kReasonFields]);
+          r.restart_shift = std::stod(f[kReasonFields + 1]);
         }
       }
       rows.push_back(r);

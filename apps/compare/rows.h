@@ -52,9 +52,14 @@ struct Row {
    * at the iteration cap or its share of it, or "failed" (an error); empty where it
    * converged, for other methods and in rows of files without the column. */
   std::string refusal;
-  /** The same result's getLastError(), which says why in full. Written last, quoted (RFC
-   * 4180), since it holds commas. */
+  /** The same result's getLastError(), which says why in full. Quoted (RFC 4180), since
+   * it holds commas. */
   std::string reason;
+  /** MI's restarts of the refinement around a refused result
+   * (pcl_mi::Verification::restart_turn_deg, restart_shift): the farthest turn (deg) and
+   * shift (m) a restart ended from the result; NaN where not asked, for other methods and in
+   * rows of files without the columns. */
+  double restart_turn_deg = NAN, restart_shift = NAN;
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
   /** With -reuse_target, whether this MI run prepared a target it had not kept (the first

@@ -140,7 +140,8 @@ printKeptTargets(const std::vector<Row>& rows, const std::vector<std::string>& m
 }
 
 /** Where MI's time goes: per method, the median over its rows of each stage of
- * pcl_mi::AlignmentResult::stages (the search's levels summed), and of what lies outside
+ * pcl_mi::AlignmentResult::stages (the search's levels summed; the verification with the
+ * second-optimum probes and the restarts around a refused result), and of what lies outside
  * the engine (PCL's align() and the output cloud, the target's derived resolution). Rows
  * read from a CSV carry no stages and are left out. */
 void
@@ -157,12 +158,11 @@ printStages(const std::vector<Row>& rows, const std::vector<std::string>& method
         continue;
       double stage[6] = {0, 0, 0, 0, 0, 1000.0 * row.seconds};
       for (const StageTiming& t : row.stages) {
-        const int k = t.name == "prepare"        ? 0
-                      : t.name == "refinement"   ? 2
-                      : t.name == "verification" || t.name == "second optimum" ? 3
-                                                 : 1; // "search ...", "restarts",
-                                                      // "runners-up", "second search",
-                                                      // "shifted optima"
+        const bool verifying = t.name == "verification" || t.name == "second optimum" ||
+                               t.name == "steadiness";
+        // The rest are the search's: "search ...", "restarts", "runners-up", "second
+        // search", "shifted optima".
+        const int k = t.name == "prepare" ? 0 : t.name == "refinement" ? 2 : verifying ? 3 : 1;
         stage[k] += t.total_ms;
       }
       stage[4] = stage[5] - stage[0] - stage[1] - stage[2] - stage[3];
