@@ -32,8 +32,9 @@ functions, fitted over the pooled results (each result weighs the same, as in th
 reliability diagram), penalised for bends and for straying from the identity. Every verdict
 stays as it is. Refused results that restarts of the refinement found unsteady (the CSVs'
 restart columns; src/engine/steadiness.cpp) take a fixed confidence instead and stay out of
-the fit; the script prints how many of them were right. A set named "unrelated" (scripts/unrelated_pairs.py) takes part in the fit
-and is left out of the acceptance diagram; its mean confidence is printed.
+the fit; the script prints how many of them were right. A set named "unrelated"
+(scripts/unrelated_pairs.py) takes part in the fit and is left out of the acceptance
+diagram; its mean confidence is printed.
 
 Usage: fit_confidence.py [-success T,R]
                          [-weights W1,...,W5 | -below_threshold B0,W1,...,W5 |
