@@ -34,32 +34,32 @@ judgeSteadiness(PreparedProblem& problem, const SearchSpace& space, AlignmentRes
   StageClock clock;
   const int coarser_stages = problem.narrowView() ? p.refinement.narrow_view_stages : 0;
   const LocalPose at = problem.toLocal(result.transformation);
-  constexpr double kInfinity = std::numeric_limits<double>::infinity();
   double turn_deg = 0.0, shift = 0.0;
-  for (int axis = 0; axis < 3; ++axis)
-    for (int sign = -1; sign <= 1; sign += 2) {
-      const Eigen::Matrix3d turned =
-          Eigen::AngleAxisd(sign * kRestartTurnDeg * M_PI / 180.0, Eigen::Vector3d::Unit(axis))
-              .toRotationMatrix() *
-          at.rotation;
-      const RefinedOptimum restart = refineOptimum(
-          problem, space, problem.fromLocal({turned, at.translation}), coarser_stages);
-      if (!restart.accepted) {
-        turn_deg = shift = kInfinity;
-        continue;
-      }
-      const LocalPose end = problem.toLocal(restart.transformation);
-      turn_deg = std::max(turn_deg, Eigen::AngleAxisd(end.rotation * at.rotation.transpose())
-                                            .angle() *
-                                        180.0 / M_PI);
-      shift = std::max(shift, (end.translation - at.translation).norm());
+  int restarts = 0;
+  // Six restarts, or fewer where one leaves the basin: nothing is farther.
+  for (; restarts < 6 && std::isfinite(turn_deg); ++restarts) {
+    const double sign = restarts % 2 == 0 ? -1.0 : 1.0;
+    const Eigen::Matrix3d turned = Eigen::AngleAxisd(sign * kRestartTurnDeg * M_PI / 180.0,
+                                                     Eigen::Vector3d::Unit(restarts / 2))
+                                       .toRotationMatrix() *
+                                   at.rotation;
+    const RefinedOptimum restart = refineOptimum(
+        problem, space, problem.fromLocal({turned, at.translation}), coarser_stages);
+    if (!restart.accepted) {
+      turn_deg = shift = std::numeric_limits<double>::infinity();
+      continue;
     }
+    const LocalPose end = problem.toLocal(restart.transformation);
+    const Eigen::AngleAxisd turn(end.rotation * at.rotation.transpose());
+    turn_deg = std::max(turn_deg, turn.angle() * 180.0 / M_PI);
+    shift = std::max(shift, (end.translation - at.translation).norm());
+  }
   Verification& v = result.verification;
   v.restart_turn_deg = turn_deg;
   v.restart_shift = shift;
   if (!(turn_deg < kSteadyTurnDeg && shift < kSteadyShift))
     v.confidence = kUnsteadyConfidence;
-  clock.end(result.stages, "steadiness", 6);
+  clock.end(result.stages, "steadiness", restarts);
 }
 
 } // namespace core
