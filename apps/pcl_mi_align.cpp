@@ -206,8 +206,8 @@ readPoses(int argc,
          readTransformFile(argc, argv, "-reference", reference, has_reference);
 }
 
-/** The verdict, the confidence and the standard deviations of the last alignment, which ran
- * under the iteration cap \a max_iterations. */
+/** The verdict, the confidence, a refused result's restarts and the standard deviations of
+ * the last alignment, which ran under the iteration cap \a max_iterations. */
 void
 printVerdict(const Registration& reg, int max_iterations)
 {
@@ -224,13 +224,26 @@ printVerdict(const Registration& reg, int max_iterations)
     print_info("Why: ");
     print_value("%s\n", why.c_str());
   }
+  const pcl_mi::Verification& v = result.verification;
   print_info("Confidence: ");
   print_value("%.3f", reg.getConfidence());
   print_info(" (probability of < 0.5 m and < 2 deg%s)\n",
-             result.verification.refusal == pcl_mi::Refusal::Degenerate
+             v.refusal == pcl_mi::Refusal::Degenerate && !v.unsteady
                  ? ", from the evidence at the result: along the free direction the pose is "
                    "only as good as the guess was there"
                  : "");
+  // A refused result's restarts: where they end apart, the confidence is no longer the
+  // evidence's.
+  if (!std::isnan(v.restart_turn_deg)) {
+    print_info("Restarts of the refinement from 2 deg turns: ");
+    if (std::isinf(v.restart_turn_deg))
+      print_value("one left the basin");
+    else
+      print_value("ended up to %.2f deg and %.3f away", v.restart_turn_deg, v.restart_shift);
+    print_info(" (%s)\n", v.unsteady ? "unsteady: the confidence is the share of such results "
+                                       "that were right"
+                                     : "steady");
+  }
   const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
   if (covariance.diagonal().maxCoeff() > 0.0) {
     const Eigen::Matrix<double, 6, 1> sd = covariance.diagonal().cwiseSqrt();

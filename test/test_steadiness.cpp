@@ -53,6 +53,7 @@ TEST(Steadiness, TwoUnrelatedPlacesAreUnsteadyAndTakeTheUnsteadyShare)
   ASSERT_FALSE(std::isnan(v.restart_turn_deg));
   EXPECT_TRUE(v.restart_turn_deg >= 1.0 || v.restart_shift >= 0.25)
       << v.restart_turn_deg << " deg, " << v.restart_shift;
+  EXPECT_TRUE(v.unsteady);
   EXPECT_EQ(v.confidence, pcl_mi::core::kUnsteadyConfidence);
   EXPECT_NE(evidenceConfidence(v), pcl_mi::core::kUnsteadyConfidence);
 }
@@ -78,5 +79,6 @@ TEST(Steadiness, ACorridorFreeAlongItsLengthIsSteadyAndKeepsItsConfidence)
   EXPECT_EQ(v.refusal, pcl_mi::Refusal::Degenerate) << v.reason;
   EXPECT_LT(v.restart_turn_deg, 1.0);
   EXPECT_LT(v.restart_shift, 0.25);
+  EXPECT_FALSE(v.unsteady);
   EXPECT_EQ(v.confidence, evidenceConfidence(v));
 }

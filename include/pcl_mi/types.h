@@ -239,6 +239,9 @@ struct Verification {
    * (docs/method.md, "The verdict"). */
   double restart_turn_deg = std::numeric_limits<double>::quiet_NaN();
   double restart_shift = std::numeric_limits<double>::quiet_NaN();
+  /** True where those restarts reached half the success bound: the refinement does not hold
+   * the result where it is, and confidence is the share of such results that were right. */
+  bool unsteady = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It
    * treats the samples as independent; RegistrationCore::covarianceScale() says how much

@@ -57,7 +57,8 @@ judgeSteadiness(PreparedProblem& problem, const SearchSpace& space, AlignmentRes
   Verification& v = result.verification;
   v.restart_turn_deg = turn_deg;
   v.restart_shift = shift;
-  if (!(turn_deg < kSteadyTurnDeg && shift < kSteadyShift))
+  v.unsteady = !(turn_deg < kSteadyTurnDeg && shift < kSteadyShift);
+  if (v.unsteady)
     v.confidence = kUnsteadyConfidence;
   clock.end(result.stages, "steadiness", restarts);
 }
