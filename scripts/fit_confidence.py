@@ -296,9 +296,11 @@ def fit_calibration(z, y):
 def calibration(sets, leads, unsteady, model):
     """The -calibration mode. The unsteady results take UNSTEADY_CONFIDENCE and stay out of
     the fit."""
+    # z: the fitted results' logits; y: every result's success.
     z = {n: logit_of(model, sets[n][0], leads[n])[~unsteady[n]] for n in sets}
-    y = {n: sets[n][1].astype(float)[~unsteady[n]] for n in sets}
-    values = fit_calibration(np.concatenate(list(z.values())), np.concatenate(list(y.values())))
+    y = {n: sets[n][1].astype(float) for n in sets}
+    values = fit_calibration(np.concatenate(list(z.values())),
+                             np.concatenate([y[n][~unsteady[n]] for n in sets]))
     print("knots  " + " ".join("%6.2f" % v for v in CALIBRATION_KNOTS))
     print("values " + " ".join("%6.2f" % v for v in values))
     accepted = [n for n in sets if n != "unrelated"]
@@ -314,7 +316,6 @@ def calibration(sets, leads, unsteady, model):
             q[~unsteady[n]] = 1.0 / (1.0 + np.exp(-f(n, z[n])))
             out.append(q)
         return np.concatenate(out)
-    y = {n: sets[n][1].astype(float) for n in sets}
     y_accepted = np.concatenate([y[n] for n in accepted])
     print_reliability("Before", p(accepted, lambda n, v: v), y_accepted)
     print_reliability("In sample", p(accepted, lambda n, v: calibrate(values, v)), y_accepted)

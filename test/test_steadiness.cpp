@@ -26,7 +26,8 @@ addBox(pcl_mi::PointList& points,
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   std::normal_distribution<float> noise(0.0f, 0.01f);
   for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3f p(lo.x() + u(rng) * (hi.x() - lo.x()), lo.y() + u(rng) * (hi.y() - lo.y()),
+    const Eigen::Vector3f p(lo.x() + u(rng) * (hi.x() - lo.x()),
+                            lo.y() + u(rng) * (hi.y() - lo.y()),
                             lo.z() + u(rng) * (hi.z() - lo.z()));
     points.push_back(p + Eigen::Vector3f(noise(rng), noise(rng), noise(rng)));
   }

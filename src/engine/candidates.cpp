@@ -125,7 +125,7 @@ finishCandidate(PreparedProblem& problem,
   result.refinement_stages = 0;
   if (p.refinement.method == Refinement::PointToDistribution) {
     StageClock refinement_clock;
-    const int coarser_stages = problem.narrowView() ? p.refinement.narrow_view_stages : 0;
+    const int coarser_stages = coarserRefinementStages(problem);
     const RefinedOptimum refined =
         refineOptimum(problem, space, result.transformation, coarser_stages);
     refinement_clock.end(result.stages, "refinement", refined.iterations);

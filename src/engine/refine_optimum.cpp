@@ -33,6 +33,12 @@ refinementOptions(const Parameters& parameters, const Eigen::Matrix<bool, 6, 1>&
   return options;
 }
 
+int
+coarserRefinementStages(const PreparedProblem& problem)
+{
+  return problem.narrowView() ? problem.parameters().refinement.narrow_view_stages : 0;
+}
+
 RefinedOptimum
 refineOptimum(PreparedProblem& problem,
               const SearchSpace& space,

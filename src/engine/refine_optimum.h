@@ -29,6 +29,11 @@ struct RefinedOptimum {
 RefinementOptions
 refinementOptions(const Parameters& parameters, const Eigen::Matrix<bool, 6, 1>& active);
 
+/** \brief The coarser stages a result of \a problem is refined with:
+ * RefinementParameters::narrow_view_stages for a narrow view, none otherwise. */
+int
+coarserRefinementStages(const PreparedProblem& problem);
+
 /** \brief Refines \a optimum (source to target, input frames) in the parameters \a space
  * searches: \a coarser_stages stages on cubes 2^k times the refinement's (k = coarser_stages
  * down to 1), then the refinement's own. */

@@ -28,11 +28,12 @@ constexpr double kSteadyShift = 0.25;
 void
 judgeSteadiness(PreparedProblem& problem, const SearchSpace& space, AlignmentResult& result)
 {
-  const Parameters& p = problem.parameters();
-  if (result.converged || p.refinement.method != Refinement::PointToDistribution)
+  if (result.converged ||
+      problem.parameters().refinement.method != Refinement::PointToDistribution)
     return;
   StageClock clock;
-  const int coarser_stages = problem.narrowView() ? p.refinement.narrow_view_stages : 0;
+  // The result's own refinement, so that a restart can end where the result did.
+  const int coarser_stages = coarserRefinementStages(problem);
   const LocalPose at = problem.toLocal(result.transformation);
   double turn_deg = 0.0, shift = 0.0;
   int restarts = 0;

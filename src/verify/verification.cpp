@@ -56,8 +56,9 @@ constexpr double kLeadHigh = 0.5;
  * scripts/fit_confidence.py -calibration on every result of the real sets and of scans of
  * unrelated places but those that take kUnsteadyConfidence (docs/benchmarks.md, "A
  * calibrated confidence", "The confidence of unsteady results"): a logistic line in the
- * logit does not follow how the success of the uncertain results rises. The map runs from the first knot to the threshold's logit,
- * which it keeps, and leaves the logit outside that span as it is: it changes no verdict. */
+ * logit does not follow how the success of the uncertain results rises. The map runs from
+ * the first knot to the threshold's logit, which it keeps, and leaves the logit outside that
+ * span as it is: it changes no verdict. */
 constexpr double kCalibrationKnots[] = {-5.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0};
 constexpr double kCalibratedLogits[] = {-5.0, -1.43, -0.65, -0.24, 1.43, 1.58, 2.39};
 
