@@ -206,8 +206,9 @@ readPoses(int argc,
          readTransformFile(argc, argv, "-reference", reference, has_reference);
 }
 
-/** The verdict, the confidence, a refused result's restarts and the standard deviations of
- * the last alignment, which ran under the iteration cap \a max_iterations. */
+/** The verdict, the confidence, the restarts of a result the verdict first refused and the
+ * standard deviations of the last alignment, which ran under the iteration cap
+ * \a max_iterations. */
 void
 printVerdict(const Registration& reg, int max_iterations)
 {
@@ -242,7 +243,9 @@ printVerdict(const Registration& reg, int max_iterations)
       print_value("ended up to %.2f deg and %.3f away", v.restart_turn_deg, v.restart_shift);
     print_info(" (%s)\n", v.unsteady ? "unsteady: the confidence is the share of such results "
                                        "that were right"
-                                     : "steady");
+                     : v.free_turns_held ? "steady: the refinement holds the turns the surfaces "
+                                           "leave free"
+                                         : "steady");
   }
   const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
   if (covariance.diagonal().maxCoeff() > 0.0) {

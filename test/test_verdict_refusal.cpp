@@ -71,3 +71,35 @@ TEST(VerdictRefusal, EachTestNamesItsRefusal)
   EXPECT_STREQ(pcl_mi::refusalName(Refusal::Degenerate), "degenerate");
   EXPECT_STREQ(pcl_mi::refusalName(Refusal::WeakEvidence), "weak evidence");
 }
+
+TEST(VerdictRefusal, HeldTurnsDoNotCountAsFreeButShiftsStillDo)
+{
+  const Verification passing = passingEvidence();
+  Eigen::Matrix<double, 6, 1> roll = Eigen::Matrix<double, 6, 1>::Zero();
+  roll[3] = 1.0;
+  Eigen::Matrix<double, 6, 1> shift = Eigen::Matrix<double, 6, 1>::Zero();
+  shift[0] = 1.0;
+
+  Verification v = passing;
+  v.observability_directions.col(0) = roll;
+  v.free_direction_contrast[0] = 0.0;
+  EXPECT_TRUE(pcl_mi::core::onlyTurnsFree(v));
+  EXPECT_EQ(judged(v), Refusal::Degenerate);
+  v.free_turns_held = true;
+  EXPECT_EQ(judged(v), Refusal::None);
+  EXPECT_FALSE(pcl_mi::core::onlyTurnsFree(v)); // nothing is free now
+
+  // A shift beside the turn stays free, held turns or not.
+  v.observability_directions.col(1) = shift;
+  v.free_direction_contrast[1] = 0.0;
+  EXPECT_EQ(judged(v), Refusal::Degenerate);
+  v.free_turns_held = false;
+  EXPECT_FALSE(pcl_mi::core::onlyTurnsFree(v));
+
+  v = passing;
+  v.observability_directions.col(0) = shift;
+  v.free_direction_contrast[0] = 0.0;
+  v.free_turns_held = true;
+  EXPECT_FALSE(pcl_mi::core::onlyTurnsFree(v));
+  EXPECT_EQ(judged(v), Refusal::Degenerate);
+}

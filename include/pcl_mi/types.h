@@ -242,6 +242,11 @@ struct Verification {
   /** True where those restarts reached half the success bound: the refinement does not hold
    * the result where it is, and confidence is the share of such results that were right. */
   bool unsteady = false;
+  /** True where the surfaces leave only turns free, the restarts find the result steady and
+   * it puts the sensors (the input frames' origins) more than a voxel apart: the refinement
+   * holds those turns, so they do not count as free, and the result was judged again
+   * without them (docs/method.md, "The verdict"). */
+  bool free_turns_held = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It
    * treats the samples as independent; RegistrationCore::covarianceScale() says how much

@@ -110,6 +110,27 @@ sensorPlacement(const PreparedProblem& problem, const Eigen::Matrix4d& pose)
   return problem.narrowView() ? SensorPlacement::kApart : SensorPlacement::kSamePlace;
 }
 
+/** The verdict on \a pose, whose joint histogram on the finest grid \a histogram holds;
+ * with \a free_turns_held, free turns do not count as free (verifyPose()). */
+Verification
+verifyAt(PreparedProblem& problem,
+         const Eigen::Matrix4d& pose,
+         const JointHistogram& histogram,
+         bool free_turns_held)
+{
+  const LocalPose at = problem.toLocal(pose);
+  JointHistogram probed;
+  const FinestMutualInformation finest_mi = [&](const Eigen::Matrix3d& rotation,
+                                                const Eigen::Vector3d& translation) {
+    return problem.mutualInformation(problem.fromLocal({rotation, translation}), probed);
+  };
+  return verifyPose(problem.distributions(), problem.refinementSamples(), at.rotation,
+                    at.translation, problem.levelResolution(0), histogram,
+                    problem.target().centroid, problem.targetAxes(),
+                    sensorPlacement(problem, pose), problem.parameters().num_threads, finest_mi,
+                    free_turns_held);
+}
+
 } // namespace
 
 double
@@ -142,16 +163,7 @@ finishCandidate(PreparedProblem& problem,
   result.mutual_information = problem.mutualInformation(result.transformation, scratch);
   const double finest_normalized_mi =
       scratch.overlap_voxels == 0 ? 0.0 : normalizedMutualInformation(scratch);
-  const LocalPose at = problem.toLocal(result.transformation);
-  JointHistogram probed;
-  const FinestMutualInformation finest_mi = [&](const Eigen::Matrix3d& rotation,
-                                                const Eigen::Vector3d& translation) {
-    return problem.mutualInformation(problem.fromLocal({rotation, translation}), probed);
-  };
-  result.verification = verifyPose(
-      problem.distributions(), problem.refinementSamples(), at.rotation, at.translation,
-      problem.levelResolution(0), scratch, problem.target().centroid, problem.targetAxes(),
-      sensorPlacement(problem, result.transformation), p.num_threads, finest_mi);
+  result.verification = verifyAt(problem, result.transformation, scratch, false);
   result.converged = result.search_converged && result.verification.reason.empty();
   verification_clock.end(result.stages, "verification", 1);
   if (result.converged)
@@ -260,6 +272,24 @@ judgeWithLead(PreparedProblem& problem, double lead, AlignmentResult& result)
   result.converged = result.search_converged;
   if (result.converged)
     refuseASecondOptimum(problem, result);
+}
+
+void
+judgeWithTurnsHeld(PreparedProblem& problem, AlignmentResult& result)
+{
+  JointHistogram histogram;
+  problem.mutualInformation(result.transformation, histogram);
+  Verification held = verifyAt(problem, result.transformation, histogram, true);
+  held.lead = result.verification.lead;
+  held.restart_turn_deg = result.verification.restart_turn_deg;
+  held.restart_shift = result.verification.restart_shift;
+  judge(held);
+  // Refused again, the first refusal stays: it names the free turns.
+  if (!held.reason.empty())
+    return;
+  result.verification = std::move(held);
+  result.converged = true;
+  refuseASecondOptimum(problem, result);
 }
 
 } // namespace core

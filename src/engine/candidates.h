@@ -78,6 +78,13 @@ finishTheKeptRunnerUp(PreparedProblem& problem,
                       AlignmentResult& result,
                       double& finest_normalized_mi);
 
+/** \brief Judges \a result, whose search converged and which was refused only for free
+ * turns that the refinement holds, again with those turns held (Verification::free_turns_held):
+ * where it then passes, it converges and takes the second-optimum test; otherwise it stays
+ * as it was. */
+void
+judgeWithTurnsHeld(PreparedProblem& problem, AlignmentResult& result);
+
 /** \brief Judges \a result again with \a lead, its optimum's lead over the others nearby
  * (Verification::lead). A result whose evidence passed without it has had the
  * second-optimum test, whose outcome stands while the evidence still passes; one that

@@ -3,6 +3,7 @@
  */
 #include "engine/steadiness.h"
 
+#include "engine/candidates.h"
 #include "engine/refine_optimum.h"
 #include "util/stage_clock.h"
 #include "verify/verification.h"
@@ -61,6 +62,13 @@ judgeSteadiness(PreparedProblem& problem, const SearchSpace& space, AlignmentRes
   v.unsteady = !(turn_deg < kSteadyTurnDeg && shift < kSteadyShift);
   if (v.unsteady)
     v.confidence = kUnsteadyConfidence;
+  // Within a voxel of each other, the scans' patterns share a centre and may hold a turn
+  // about it by themselves (a spinning sensor's rings on a road, a narrow view turned on the
+  // spot): a steady result there says nothing of its turns (docs/benchmarks.md, "Free turns
+  // the refinement holds").
+  else if (v.refusal == Refusal::Degenerate && onlyTurnsFree(v) && result.search_converged &&
+           !(result.transformation.topRightCorner<3, 1>().norm() < problem.levelResolution(0)))
+    judgeWithTurnsHeld(problem, result);
   clock.end(result.stages, "steadiness", restarts);
 }
 

@@ -112,10 +112,13 @@ rmsRadius(const SourceSamples& source)
 }
 
 /** True where the \a k-th least observable direction of \a v is free: its contrast is low and
- * the MI does not hold it (false for a NaN loss). */
+ * the MI does not hold it (false for a NaN loss), nor, for a turn, the refinement
+ * (Verification::free_turns_held). */
 bool
 isFree(const Verification& v, int k)
 {
+  if (v.free_turns_held && mostlyATurn(v.observability_directions.col(k)))
+    return false;
   return v.free_direction_contrast[k] < kFreeDirectionContrast &&
          !(v.free_turn_mi_loss[k] >= kHeldTurnMiLoss);
 }
@@ -430,9 +433,11 @@ verifyPose(const TargetDistributions& target,
            const Eigen::Matrix3d& target_axes,
            SensorPlacement placement,
            int num_threads,
-           const FinestMutualInformation& finest_mi)
+           const FinestMutualInformation& finest_mi,
+           bool free_turns_held)
 {
   Verification v;
+  v.free_turns_held = free_turns_held;
   // The evidence at the result and the contrast probes are independent tasks. Every count
   // and sum is its own task's, so the figures do not depend on the threads.
   PoseEvidence at;
@@ -503,6 +508,20 @@ verifyPose(const TargetDistributions& target,
     v.covariance.setZero();
   judge(v);
   return v;
+}
+
+bool
+onlyTurnsFree(const Verification& v)
+{
+  bool any = false;
+  for (int k = 0; k < 2; ++k) {
+    if (!isFree(v, k))
+      continue;
+    if (!mostlyATurn(v.observability_directions.col(k)))
+      return false;
+    any = true;
+  }
+  return any;
 }
 
 void

@@ -46,6 +46,11 @@ sharesSurface(const Verification& verification)
 double
 calibratedLogit(double z);
 
+/** \brief True where \a v leaves a direction free and every free direction is mostly a turn
+ * (a unit move [t, omega * radius] at least 0.7 a turn). */
+bool
+onlyTurnsFree(const Verification& v);
+
 /** \brief Sets the confidence of \a v from its evidence, and the reason it fails the
  * reliability test (empty where it passes). verifyPose() calls it; call it again after
  * setting Verification::lead. */
@@ -89,7 +94,9 @@ planeCovariance(const PoseEvidence& at,
  * the patterns may fall on one another under any move, and that holds for every free
  * direction. Elsewhere a free direction that is mostly a turn tilting the source is asked of
  * \a finest_mi, where given, which may hold it (Verification::free_turn_mi_loss). It runs on
- * up to \a num_threads threads, with the same result on any number. */
+ * up to \a num_threads threads, with the same result on any number. With
+ * \a free_turns_held, a free direction that is mostly a turn does not count as free
+ * (Verification::free_turns_held): the caller has found that the refinement holds it. */
 Verification
 verifyPose(const TargetDistributions& target,
            const SourceSamples& source,
@@ -101,7 +108,8 @@ verifyPose(const TargetDistributions& target,
            const Eigen::Matrix3d& target_axes,
            SensorPlacement placement,
            int num_threads = 1,
-           const FinestMutualInformation& finest_mi = {});
+           const FinestMutualInformation& finest_mi = {},
+           bool free_turns_held = false);
 
 } // namespace core
 } // namespace pcl_mi
