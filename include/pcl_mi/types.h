@@ -211,13 +211,14 @@ struct Verification {
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Identity();
   /** Share of the inliers lost by moving the result either way along each of the two least
    * observable directions, so far that the samples move one voxel (root mean square); below
-   * 0.05 the direction counts as free (degenerate). Where the result leaves the sensors
-   * where they were (within a voxel, the vertical axis tilted by less than a voxel at the
-   * source's RMS radius, any heading; the input frames' origins and axes stand for them),
-   * only inliers on surfaces that the move crosses count: the scan patterns then fall on one
-   * another by themselves. Where a scan all around is left within a voxel with its vertical
-   * axis tilted further, the same holds for a direction that is mostly a shift: both scans'
-   * patterns are centred on one point, and a shift moves one off the other. */
+   * 0.05 the direction counts as free (degenerate) unless the MI holds it
+   * (free_turn_mi_loss) or, a turn, the refinement (free_turns_held). Where the result leaves
+   * the sensors where they were (within a voxel, the vertical axis tilted by less than a
+   * voxel at the source's RMS radius, any heading; the input frames' origins and axes stand
+   * for them), only inliers on surfaces that the move crosses count: the scan patterns then
+   * fall on one another by themselves. Where a scan all around is left within a voxel with
+   * its vertical axis tilted further, the same holds for a direction that is mostly a shift:
+   * both scans' patterns are centred on one point, and a shift moves one off the other. */
   double free_direction_contrast[2] = {0.0, 0.0};
   /** For each of those two directions that the contrast leaves free and that is mostly a turn
    * tilting the source (about an axis at least 60 degrees from the input frame's z), the
