@@ -101,9 +101,9 @@ takeCandidate(AlignmentResult&& other,
 SensorPlacement
 sensorPlacement(const PreparedProblem& problem, const Eigen::Matrix4d& pose)
 {
-  const double resolution = problem.levelResolution(0);
-  if (!(pose.topRightCorner<3, 1>().norm() < resolution))
+  if (sensorsApart(problem, pose))
     return SensorPlacement::kApart;
+  const double resolution = problem.levelResolution(0);
   const double tilt = std::acos(std::clamp(pose(2, 2), -1.0, 1.0)); // z onto z
   if (tilt * std::max(problem.source().rms_radius, resolution) < resolution)
     return SensorPlacement::kSamePlaceAndAxis;
@@ -132,6 +132,12 @@ verifyAt(PreparedProblem& problem,
 }
 
 } // namespace
+
+bool
+sensorsApart(const PreparedProblem& problem, const Eigen::Matrix4d& pose)
+{
+  return !(pose.topRightCorner<3, 1>().norm() < problem.levelResolution(0));
+}
 
 double
 finishCandidate(PreparedProblem& problem,

@@ -78,6 +78,11 @@ finishTheKeptRunnerUp(PreparedProblem& problem,
                       AlignmentResult& result,
                       double& finest_normalized_mi);
 
+/** \brief True where \a pose puts the source's sensor (its input frame's origin) more than
+ * a finest voxel from the target's (a translation that is not finite counts as apart). */
+bool
+sensorsApart(const PreparedProblem& problem, const Eigen::Matrix4d& pose);
+
 /** \brief Judges \a result, whose search converged and which was refused only for free
  * turns that the refinement holds, again with those turns held (Verification::free_turns_held):
  * where it then passes, it converges and takes the second-optimum test; otherwise it stays

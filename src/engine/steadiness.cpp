@@ -67,7 +67,7 @@ judgeSteadiness(PreparedProblem& problem, const SearchSpace& space, AlignmentRes
   // spot): a steady result there says nothing of its turns (docs/benchmarks.md, "Free turns
   // the refinement holds").
   else if (v.refusal == Refusal::Degenerate && onlyTurnsFree(v) && result.search_converged &&
-           !(result.transformation.topRightCorner<3, 1>().norm() < problem.levelResolution(0)))
+           sensorsApart(problem, result.transformation))
     judgeWithTurnsHeld(problem, result);
   clock.end(result.stages, "steadiness", restarts);
 }
