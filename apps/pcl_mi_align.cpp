@@ -228,11 +228,14 @@ printVerdict(const Registration& reg, int max_iterations)
   const pcl_mi::Verification& v = result.verification;
   print_info("Confidence: ");
   print_value("%.3f", reg.getConfidence());
+  const bool degenerate = v.refusal == pcl_mi::Refusal::Degenerate && !v.unsteady;
   print_info(" (probability of < 0.5 m and < 2 deg%s)\n",
-             v.refusal == pcl_mi::Refusal::Degenerate && !v.unsteady
-                 ? ", from the evidence at the result: along the free direction the pose is "
-                   "only as good as the guess was there"
-                 : "");
+             degenerate && v.sensors_in_place
+                 ? ", the share of degenerate results that left the sensors in place and were "
+                   "right"
+             : degenerate ? ", from the evidence at the result: along the free direction the pose "
+                            "is only as good as the guess was there"
+                          : "");
   // A refused result's restarts: where they end apart, the confidence is no longer the
   // evidence's.
   if (!std::isnan(v.restart_turn_deg)) {

@@ -31,8 +31,9 @@ and the values at the inner knots are a logistic regression of success on the ma
 functions, fitted over the pooled results (each result weighs the same, as in the
 reliability diagram), penalised for bends and for straying from the identity. Every verdict
 stays as it is. Refused results that restarts of the refinement found unsteady (the CSVs'
-restart columns; src/engine/steadiness.cpp) take a fixed confidence instead and stay out of
-the fit; the script prints how many of them were right. A set named "unrelated"
+restart columns; src/engine/steadiness.cpp), and degenerate results that leave the sensors
+in place (the reason says so; src/verify/verification.cpp), take a fixed confidence instead
+and stay out of the fit; the script prints how many of them were right. A set named "unrelated"
 (scripts/unrelated_pairs.py) takes part in the fit and is left out of the acceptance
 diagram; its mean confidence is printed.
 
@@ -65,6 +66,10 @@ LEAD_CLAMP = (-0.3, 0.5)
 # (kUnsteadyConfidence, src/verify/verification.h).
 STEADY_LIMITS = (1.0, 0.25)
 UNSTEADY_CONFIDENCE = 0.06
+# A steady result refused as degenerate whose reason says this takes this confidence
+# (kInPlaceDegenerateConfidence, src/verify/verification.h).
+IN_PLACE_REASON = "leaves the sensors where they were"
+IN_PLACE_CONFIDENCE = 0.04
 
 
 def passes_gate(row):
@@ -94,16 +99,23 @@ def load_lead(path):
     return np.array([float(r.get("lead") or "nan") for r in rows])
 
 
-def load_unsteady(path):
-    """Per MI row of \a path, whether it is a refused result its restarts found unsteady;
-    false where the file has no restart columns."""
+def load_fixed(path):
+    """Per MI row of \a path, the fixed confidence it takes: UNSTEADY_CONFIDENCE for a refused
+    result its restarts found unsteady, IN_PLACE_CONFIDENCE for another degenerate one that
+    leaves the sensors in place, NaN for the rest (and where the file has no such columns)."""
     with open(path) as f:
         rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
     spread = lambda r, k: float(r.get(k) or "nan")
-    return np.array([r["converged"] == "0" and not np.isnan(spread(r, "restart_turn_deg")) and
-                     not (spread(r, "restart_turn_deg") < STEADY_LIMITS[0] and
-                          spread(r, "restart_shift_m") < STEADY_LIMITS[1]) for r in rows],
-                    dtype=bool)
+
+    def fixed(r):
+        if (r["converged"] == "0" and not np.isnan(spread(r, "restart_turn_deg")) and
+                not (spread(r, "restart_turn_deg") < STEADY_LIMITS[0] and
+                     spread(r, "restart_shift_m") < STEADY_LIMITS[1])):
+            return UNSTEADY_CONFIDENCE
+        if r.get("refusal") == "degenerate" and IN_PLACE_REASON in r.get("reason", ""):
+            return IN_PLACE_CONFIDENCE
+        return np.nan
+    return np.array([fixed(r) for r in rows])
 
 
 def logit_of(model, x, lead):
@@ -294,27 +306,31 @@ def fit_calibration(z, y):
     return values
 
 
-def calibration(sets, leads, unsteady, model):
-    """The -calibration mode. The unsteady results take UNSTEADY_CONFIDENCE and stay out of
-    the fit."""
+def calibration(sets, leads, fixed, model):
+    """The -calibration mode. The results with a fixed confidence (load_fixed()) take it and
+    stay out of the fit."""
+    has_fixed = {n: ~np.isnan(fixed[n]) for n in fixed}
     # z: the fitted results' logits; y: every result's success.
-    z = {n: logit_of(model, sets[n][0], leads[n])[~unsteady[n]] for n in sets}
+    z = {n: logit_of(model, sets[n][0], leads[n])[~has_fixed[n]] for n in sets}
     y = {n: sets[n][1].astype(float) for n in sets}
     values = fit_calibration(np.concatenate(list(z.values())),
-                             np.concatenate([y[n][~unsteady[n]] for n in sets]))
+                             np.concatenate([y[n][~has_fixed[n]] for n in sets]))
     print("knots  " + " ".join("%6.2f" % v for v in CALIBRATION_KNOTS))
     print("values " + " ".join("%6.2f" % v for v in values))
     accepted = [n for n in sets if n != "unrelated"]
     for names, title in ((accepted, "the sets"), (["unrelated"], "unrelated")):
-        u = np.concatenate([sets[n][1][unsteady[n]] for n in names if n in sets] or [[]])
-        print("unsteady results (%s): %d, right %d (confidence %.2f)" % (
-            title, len(u), int(np.sum(u)), UNSTEADY_CONFIDENCE))
+        for value, kind in ((UNSTEADY_CONFIDENCE, "unsteady"),
+                            (IN_PLACE_CONFIDENCE, "degenerate in place")):
+            u = np.concatenate([sets[n][1][fixed[n] == value] for n in names if n in sets] or
+                               [[]])
+            print("%s results (%s): %d, right %d (confidence %.2f)" % (
+                kind, title, len(u), int(np.sum(u)), value))
 
     def p(names, f):
         out = []
         for n in names:
-            q = np.full(len(unsteady[n]), UNSTEADY_CONFIDENCE)
-            q[~unsteady[n]] = 1.0 / (1.0 + np.exp(-f(n, z[n])))
+            q = fixed[n].copy()
+            q[~has_fixed[n]] = 1.0 / (1.0 + np.exp(-f(n, z[n])))
             out.append(q)
         return np.concatenate(out)
     y_accepted = np.concatenate([y[n] for n in accepted])
@@ -325,7 +341,7 @@ def calibration(sets, leads, unsteady, model):
         others = [n for n in sets if n != name]
         held_out[name] = fit_calibration(
             np.concatenate([z[n] for n in others]),
-            np.concatenate([y[n][~unsteady[n]] for n in others]))
+            np.concatenate([y[n][~has_fixed[n]] for n in others]))
     print_reliability("Each set left out",
                       p(accepted, lambda n, v: calibrate(held_out[n], v)), y_accepted)
     if "unrelated" in sets:
@@ -358,7 +374,7 @@ def main(argv):
         leads = {name(p): load_lead(p) for p in args}
         if mode == "-lead":
             return lead_term(sets, leads, model)
-        return calibration(sets, leads, {name(p): load_unsteady(p) for p in args}, model)
+        return calibration(sets, leads, {name(p): load_fixed(p) for p in args}, model)
     if model is not None:
         return recalibrate({os.path.splitext(os.path.basename(p))[0]: load(p, bound)
                             for p in args}, model)

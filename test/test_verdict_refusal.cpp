@@ -103,3 +103,32 @@ TEST(VerdictRefusal, HeldTurnsDoNotCountAsFreeButShiftsStillDo)
   EXPECT_FALSE(pcl_mi::core::onlyTurnsFree(v));
   EXPECT_EQ(judged(v), Refusal::Degenerate);
 }
+
+TEST(VerdictRefusal, ADegenerateResultWithTheSensorsInPlaceTakesTheirShareOfRightOnes)
+{
+  const Verification passing = passingEvidence();
+  Eigen::Matrix<double, 6, 1> along = Eigen::Matrix<double, 6, 1>::Zero();
+  along[0] = 1.0;
+
+  // Passing in place (a sensor that stood still): the evidence's confidence stands.
+  Verification v = passing;
+  v.sensors_in_place = true;
+  pcl_mi::core::judge(v);
+  EXPECT_EQ(v.refusal, Refusal::None);
+  EXPECT_GE(v.confidence, pcl_mi::core::kReliableConfidence);
+
+  // Free along x in place: the fixed share, and the reason says why.
+  v.observability_directions.col(0) = along;
+  v.free_direction_contrast[0] = 0.0;
+  pcl_mi::core::judge(v);
+  EXPECT_EQ(v.refusal, Refusal::Degenerate);
+  EXPECT_DOUBLE_EQ(v.confidence, pcl_mi::core::kInPlaceDegenerateConfidence);
+  EXPECT_NE(v.reason.find("leaves the sensors where they were"), std::string::npos) << v.reason;
+
+  // The same apart keeps the evidence's confidence.
+  v.sensors_in_place = false;
+  pcl_mi::core::judge(v);
+  EXPECT_EQ(v.refusal, Refusal::Degenerate);
+  EXPECT_GT(v.confidence, pcl_mi::core::kInPlaceDegenerateConfidence);
+  EXPECT_EQ(v.reason.find("sensors"), std::string::npos) << v.reason;
+}

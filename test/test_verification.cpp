@@ -334,6 +334,13 @@ TEST(Verification, ARingScannedRoadIsDegenerateAlongItWhereTheRingsMeet)
   alignDefaults(reg, ringScannedRoad(1), ringScannedRoad(2));
   expectNotTrusted(reg, "degenerate along x");
   EXPECT_TRUE(reg.getCovariance().isZero());
+  // The rings on one another raise every term of the confidence too: the result takes the
+  // share of such results that were right, not the evidence's high figure.
+  const pcl_mi::Verification& v = reg.getVerification();
+  EXPECT_TRUE(v.sensors_in_place);
+  EXPECT_NE(reg.getLastError().find("leaves the sensors where they were"), std::string::npos)
+      << reg.getLastError();
+  EXPECT_LT(reg.getConfidence(), 0.1) << (v.unsteady ? "unsteady" : "steady");
 }
 
 // The same road with the source's sensor turned about its vertical axis: a scan taken
@@ -357,6 +364,7 @@ TEST(Verification, ARingScannedRoadIsDegenerateAlongItWhereTheTiltedSensorsMeet)
   alignDefaults(reg, ringScannedRoad(2, 0.0f, 5.0f, 360.0f),
                 ringScannedRoad(1, 0.0f, 0.0f, 360.0f));
   expectNotTrusted(reg, "degenerate along x");
+  EXPECT_FALSE(reg.getVerification().sensors_in_place); // tilted apart
 }
 
 // A sensor that stood still: a real street scan against its own other half (every second
@@ -371,6 +379,7 @@ TEST(Verification, ARealScanAgainstItsOtherHalfConverges)
   Registration reg;
   alignDefaults(reg, odd, even);
   EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_TRUE(reg.getVerification().sensors_in_place); // in place, and held all the same
   EXPECT_GE(reg.getConfidence(), 0.95);
   EXPECT_POSE_NEAR(reg.getFinalTransformation().cast<double>(), Eigen::Matrix4d::Identity());
 }

@@ -178,8 +178,9 @@ refusalName(Refusal refusal);
 struct Verification {
   /** Probability that the result is within 0.5 m and 2 degrees of the true pose, from a
    * logistic model of the evidence below fitted on real scans of several sensors; for a
-   * refused result that restarts of the refinement find unsteady (restart_turn_deg), the
-   * share of such results that were right. */
+   * refused result that restarts of the refinement find unsteady (restart_turn_deg), or a
+   * degenerate one that leaves the sensors in place (sensors_in_place), the share of such
+   * results that were right. */
   double confidence = 0.0;
   /** Empty when the result passes the reliability test, otherwise why not. */
   std::string reason;
@@ -248,6 +249,12 @@ struct Verification {
    * holds those turns, so they do not count as free, and the result was judged again
    * without them (docs/method.md, "The verdict"). */
   bool free_turns_held = false;
+  /** True where the result leaves the sensors where they were: within a voxel of each other
+   * (the input frames' origins), the vertical axis tilted by less than a voxel at the
+   * source's RMS radius, any heading. There the scans' own patterns (a spinning LiDAR's
+   * rings) fall on one another and raise the evidence, whatever the surfaces hold; a
+   * degenerate result there takes a fixed confidence (docs/method.md, "The verdict"). */
+  bool sensors_in_place = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It
    * treats the samples as independent; RegistrationCore::covarianceScale() says how much

@@ -438,6 +438,7 @@ verifyPose(const TargetDistributions& target,
 {
   Verification v;
   v.free_turns_held = free_turns_held;
+  v.sensors_in_place = placement == SensorPlacement::kSamePlaceAndAxis;
   // The evidence at the result and the contrast probes are independent tasks. Every count
   // and sum is its own task's, so the figures do not depend on the threads.
   PoseEvidence at;
@@ -539,6 +540,13 @@ judge(Verification& v)
   else if (free[0] || free[1]) {
     v.refusal = Refusal::Degenerate;
     reason << "degenerate along " << freeAxes(v, free) << ": the surfaces leave the pose free there";
+    // The scans' own patterns raise every term of the confidence where they fall on one
+    // another; its logistic model then says nothing of the free direction.
+    if (v.sensors_in_place) {
+      v.confidence = kInPlaceDegenerateConfidence;
+      reason << ", and the result leaves the sensors where they were, where their own scan "
+                "patterns fall on one another";
+    }
   }
   else if (v.lead < 0.0) { // false for NaN
     v.refusal = Refusal::SecondOptimum;

@@ -28,6 +28,11 @@ constexpr double kReliableConfidence = 0.95;
  * results (docs/benchmarks.md, "The confidence of unsteady results"). */
 constexpr double kUnsteadyConfidence = 0.06;
 
+/** Confidence of a result refused as degenerate that leaves the sensors where they were
+ * (Verification::sensors_in_place): the share of such results that were right
+ * (docs/benchmarks.md, "Degenerate where the sensors stand where they were"). */
+constexpr double kInPlaceDegenerateConfidence = 0.04;
+
 /** Fewest inliers (source samples on a target surface) that can hold six degrees of
  * freedom with room to spare; a result with fewer does not pass. */
 constexpr std::size_t kMinimumInliers = 30;
@@ -51,7 +56,8 @@ calibratedLogit(double z);
 bool
 onlyTurnsFree(const Verification& v);
 
-/** \brief Sets the confidence of \a v from its evidence, and the reason it fails the
+/** \brief Sets the confidence of \a v from its evidence (kInPlaceDegenerateConfidence for a
+ * degenerate result that leaves the sensors in place), and the reason it fails the
  * reliability test (empty where it passes). verifyPose() calls it; call it again after
  * setting Verification::lead. */
 void
