@@ -206,16 +206,18 @@ readPoses(int argc,
          readTransformFile(argc, argv, "-reference", reference, has_reference);
 }
 
-/** The verdict, the confidence, the restarts of a result the verdict first refused and the
- * standard deviations of the last alignment, which ran under the iteration cap
- * \a max_iterations. */
+/** The verdict, the confidence, the restarts of a result the verdict first refused, the
+ * alignment of the clouds swapped and the standard deviations of the last alignment, which
+ * ran under the iteration cap \a max_iterations. */
 void
 printVerdict(const Registration& reg, int max_iterations)
 {
   print_info("Converged: ");
   const pcl_mi::AlignmentResult& result = reg.getLastResult();
   if (reg.hasConverged()) {
-    print_value("yes (search converged, result verified)\n");
+    print_value(result.verification.reverse_confirmed
+                    ? "yes (confirmed by the alignment of the clouds swapped)\n"
+                    : "yes (search converged, result verified)\n");
   }
   else {
     // getLastError()'s cause, with the cap named as this app takes it.
@@ -249,6 +251,12 @@ printVerdict(const Registration& reg, int max_iterations)
                      : v.free_turns_held ? "steady: the refinement holds the turns the surfaces "
                                            "leave free"
                                          : "steady");
+  }
+  if (!std::isnan(v.reverse_shift)) {
+    print_info("The clouds swapped: ");
+    print_value("ended %.3f away and %.2f deg from the result", v.reverse_shift,
+                v.reverse_turn_deg);
+    print_info(" (%s)\n", v.reverse_confirmed ? "confirms it" : "does not confirm it");
   }
   const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
   if (covariance.diagonal().maxCoeff() > 0.0) {

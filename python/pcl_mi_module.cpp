@@ -192,6 +192,7 @@ struct Result {
   double confidence = 0.0;
   std::string reason;
   std::string refusal;
+  bool reverse_confirmed = false;
   py::array_t<double> covariance;
   double mutual_information = 0.0;
   int iterations = 0;
@@ -245,6 +246,7 @@ public:
         result, settings_.max_iterations,
         "max_iterations=" + std::to_string(settings_.max_iterations));
     r.refusal = pcl_mi::refusalName(result.verification.refusal);
+    r.reverse_confirmed = result.verification.reverse_confirmed;
     // Widened where the result depends on where the cells cut the surfaces: a refinement
     // more, after the alignment's time (RegistrationCore::covarianceScale()).
     Eigen::Matrix<double, 6, 6> covariance = result.verification.covariance;
@@ -293,7 +295,11 @@ PYBIND11_MODULE(pcl_mi, m)
                     "4x4 float64 source-to-target transformation")
       .def_readonly("converged", &Result::converged,
                     "True only when the search converged and the result passed the "
-                    "reliability test (docs/method.md, 'The verdict')")
+                    "reliability test, or the alignment of the clouds swapped confirmed it "
+                    "(docs/method.md, 'The verdict')")
+      .def_readonly("reverse_confirmed", &Result::reverse_confirmed,
+                    "True where the alignment of the clouds swapped confirmed a result the "
+                    "reliability test held back")
       .def_readonly("confidence", &Result::confidence,
                     "probability that the result is within 0.5 m and 2 deg of the true pose")
       .def_readonly("reason", &Result::reason, "why converged is False ('' when True)")

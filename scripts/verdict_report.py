@@ -10,7 +10,8 @@ where the search converged, at least 30 inliers, no free direction (contrast >= 
 confidence at least the threshold (src/verify/verification.cpp). The CSVs do not record the
 second-optimum check, so those figures count a few results as converged that the library
 refuses: their wrong shares are upper bounds. Nor do they say which free turns the MI or
-the refinement holds, which the library passes and the gate does not.
+the refinement holds, which the library passes and the gate does not, and the gate leaves
+out the results the clouds swapped confirm.
 With -reference_check ROOT,DEG, the results of a pair list (`pcl_mi_compare -list`) are left
 out where the set's own check of its reference, ROOT/SET/pairs_overlap.csv (the
 foreign_lidar layout, one row per row of the list), says that a point-to-plane ICP started

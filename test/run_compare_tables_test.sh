@@ -41,7 +41,7 @@ if echo "$out" | grep -q '^gicp +backward'; then echo "gicp has no backward rows
 merged=$(mktemp)
 trap 'rm -f "$merged"' EXIT
 "$1" -merge "$2" "$3" -csv "$merged" > /dev/null
-test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 62
+test "$(head -1 "$merged" | awk -F, '{ print NF }')" -eq 64
 # Every row lacks a value somewhere: the old rows their poses, all of them MI's confidence.
 test "$(grep -c ',nan,' "$merged")" -eq 10
 
@@ -57,20 +57,21 @@ expect '^mi-varz +failed +1 +0$'
 test "$(echo "$out" | grep -c '^mi-varz  *[a-z ]* [0-9]  *[0-9]$')" -eq 4
 if "$1" -merge "$3" -methods mi-varz | grep -q "by kind of reason"; then echo "refusals from rows without them"; exit 1; fi
 # The reasons, commas and doubled quotes in them, read back as written (before the two
-# restart columns, NaN where the file had none), and a file written by -merge merges into
-# itself.
+# restart and the two reverse columns, NaN where the file had none), and a file written by
+# -merge merges into itself.
 "$1" -merge "$4" -csv "$merged" > /dev/null
-without_restarts() { grep -v '^sequence,' "$1" | sed 's/,-\{0,1\}nan,-\{0,1\}nan$//'; }
-test "$(without_restarts "$merged" | wc -l)" -eq "$(grep -c ',-\{0,1\}nan,-\{0,1\}nan$' "$merged")"
+without_restarts() { grep -v '^sequence,' "$1" | sed 's/\(,-\{0,1\}nan\)\{4\}$//'; }
+test "$(without_restarts "$merged" | wc -l)" -eq "$(grep -c '\(,-\{0,1\}nan\)\{4\}$' "$merged")"
 diff <(grep -o '"[^"]*\("".*\)*"$' "$4") <(without_restarts "$merged" | grep -o '"[^"]*\("".*\)*"$')
 again=$(mktemp)
 trap 'rm -f "$merged" "$again"' EXIT
 "$1" -merge "$merged" -csv "$again" > /dev/null
 cmp "$merged" "$again"
-grep -q ',"the source is ""empty"", or holds no point",nan,nan$' "$merged"
-# The restart columns read back as written, a restart that left the basin as inf.
+grep -q ',"the source is ""empty"", or holds no point",nan,nan,nan,nan$' "$merged"
+# The restart and reverse columns read back as written, a restart that left the basin as
+# inf.
 restarts=$(mktemp)
 trap 'rm -f "$merged" "$again" "$restarts"' EXIT
-sed '$ s/,nan,nan$/,3.25,inf/' "$merged" > "$restarts"
+sed '$ s/,nan,nan,nan,nan$/,3.25,inf,0.036,0.13/' "$merged" > "$restarts"
 "$1" -merge "$restarts" -csv "$again" > /dev/null
-test "$(tail -1 "$again" | grep -c ',3.25,inf$')" -eq 1
+test "$(tail -1 "$again" | grep -c ',3.25,inf,0.036,0.13$')" -eq 1

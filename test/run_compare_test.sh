@@ -19,22 +19,24 @@ grep -q "^Mean signed translation error of the successful rows" "$work/tables.tx
 # Every row keeps both transforms and the signed error in the travel frame (columns 15-17:
 # along, left, up); recomputed here from the transforms (18-29 estimate, 30-41 reference),
 # they must match the written components and the unsigned error.
-awk -F, 'NR == 1 { if (NF != 62) { print "header has " NF " columns"; exit 1 } next }
+awk -F, 'NR == 1 { if (NF != 64) { print "header has " NF " columns"; exit 1 } next }
   { ex = $21 - $33; ey = $25 - $37; ez = $29 - $41; n = sqrt($33^2 + $37^2 + $41^2)
     ax = $33 / n; ay = $37 / n; az = $41 / n            # along: the reference motion
     l = sqrt(ax^2 + ay^2); lx = -ay / l; ly = ax / l    # left: z x along, normalised
     ux = -az * ly; uy = az * lx; uz = ax * ly - ay * lx # up: along x left
     d1 = ex * ax + ey * ay + ez * az - $15; d2 = ex * lx + ey * ly - $16
     d3 = ex * ux + ey * uy + ez * uz - $17; d4 = sqrt(ex^2 + ey^2 + ez^2) - $10
-    if (NF != 62 || d1^2 + d2^2 + d3^2 + d4^2 > 1e-8) { print "inconsistent row: " $0; bad++ } }
+    if (NF != 64 || d1^2 + d2^2 + d3^2 + d4^2 > 1e-8) { print "inconsistent row: " $0; bad++ } }
   END { if (bad) exit 1 }' "$work/all.csv"
 # MI rows carry a confidence (column 42) and standard deviations; the other methods NaN.
 awk -F, 'NR > 1 { mi = $9 ~ /^mi-/; if (mi != ($42 != "nan" && $42 != "-nan")) { print "confidence column: " $0; bad++ }
                   if (mi && ($42 < 0.9 || $13 != 1 || !($43 > 0))) { print "MI row not trusted: " $0; bad++ }
                   # the turn share of the weaker direction (column 58): in [0, 1] for MI, NaN else
                   if (mi != ($58 != "nan" && $58 != "-nan") || (mi && ($58 < 0 || $58 > 1))) { print "turn share column: " $0; bad++ }
-                  # the restarts (columns 61, 62): asked of refused MI results only, so NaN here
-                  if ($61 !~ /nan$/ || $62 !~ /nan$/) { print "restart columns: " $0; bad++ } }
+                  # the restarts (columns 61, 62) and the clouds swapped (63, 64): asked of
+                  # refused MI results only, so NaN here
+                  if ($61 !~ /nan$/ || $62 !~ /nan$/) { print "restart columns: " $0; bad++ }
+                  if ($63 !~ /nan$/ || $64 !~ /nan$/) { print "reverse columns: " $0; bad++ } }
          END { if (bad) exit 1 }' "$work/all.csv"
 # 4 alignments x 4 methods, and every MI row within the bound.
 test "$(tail -n +2 "$work/all.csv" | wc -l)" -eq 16

@@ -209,6 +209,8 @@ runMethod(const std::string& chain,
     std::copy(std::begin(evidence), std::end(evidence), std::begin(o.evidence));
     o.restart_turn_deg = v.restart_turn_deg;
     o.restart_shift = v.restart_shift;
+    o.reverse_shift = v.reverse_shift;
+    o.reverse_turn_deg = v.reverse_turn_deg;
     if (!o.converged) {
       o.refusal = apps::notConvergedKind(mi->getLastResult());
       o.reason = mi->getLastError();

@@ -25,11 +25,13 @@ constexpr std::size_t kLeadFields = kEvidenceFields + 1;
 constexpr std::size_t kTurnLossFields = kLeadFields + 1; // the free turns' MI loss
 constexpr std::size_t kTurnShareFields = kTurnLossFields + 1; // the weaker direction's turn share
 constexpr std::size_t kReasonFields = kTurnShareFields + 2; // MI's refusal and its reason
-constexpr std::size_t kFields = kReasonFields + 2; // the restarts' turn and shift
+constexpr std::size_t kRestartFields = kReasonFields + 2; // the restarts' turn and shift
+constexpr std::size_t kFields = kRestartFields + 2; // the clouds swapped: shift and turn
 /** The column counts of the formats readRows() accepts, each the first columns of the next. */
-constexpr std::size_t kFormats[] = {kLegacyFields,    kPoseFields,     kVerdictFields,
-                                    kEvidenceFields,  kLeadFields,     kTurnLossFields,
-                                    kTurnShareFields, kReasonFields,   kFields};
+constexpr std::size_t kFormats[] = {kLegacyFields,   kPoseFields,      kVerdictFields,
+                                    kEvidenceFields, kLeadFields,      kTurnLossFields,
+                                    kTurnShareFields, kReasonFields,   kRestartFields,
+                                    kFields};
 
 /** The first \a n columns of the CSV line \a line. */
 std::string
@@ -92,6 +94,7 @@ csvHeader()
   h += ",search_converged,inliers,inlier_fraction,peak_contrast,weakest_contrast,normalized_mi,"
        "free_direction_contrast,lead,free_turn_mi_loss,free_direction_turn_share,refusal,reason";
   h += ",restart_turn_deg,restart_shift_m";
+  h += ",reverse_shift_m,reverse_turn_deg";
   return h;
 }
 
@@ -133,7 +136,7 @@ writeRow(std::ostream& out, const Row& r)
   for (double e : r.evidence)
     out << ',' << e;
   out << ',' << r.refusal << ',' << quoted(r.reason) << ',' << r.restart_turn_deg << ','
-      << r.restart_shift << '\n';
+      << r.restart_shift << ',' << r.reverse_shift << ',' << r.reverse_turn_deg << '\n';
 }
 
 /** Reads rows written by writeRow(); false with \a error on a malformed file. */
@@ -196,9 +199,13 @@ readRows(const std::string& path, std::vector<Row>& rows, std::string& error)
           r.refusal = f[kTurnShareFields];
           r.reason = f[kTurnShareFields + 1];
         }
-        if (f.size() >= kFields) {
+        if (f.size() >= kRestartFields) {
           r.restart_turn_deg = std::stod(f[kReasonFields]);
           r.restart_shift = std::stod(f[kReasonFields + 1]);
+        }
+        if (f.size() >= kFields) {
+          r.reverse_shift = std::stod(f[kRestartFields]);
+          r.reverse_turn_deg = std::stod(f[kRestartFields + 1]);
         }
       }
       rows.push_back(r);

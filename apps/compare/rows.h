@@ -60,6 +60,11 @@ struct Row {
    * shift (m) a restart ended from the result; NaN where not asked, for other methods and in
    * rows of files without the columns. */
   double restart_turn_deg = NAN, restart_shift = NAN;
+  /** How far MI's alignment of the clouds swapped ended from a refused result, inverted
+   * (pcl_mi::Verification::reverse_shift, reverse_turn_deg: m, deg); NaN where not asked,
+   * for other methods and in rows of files without the columns. A result it confirmed says
+   * converged. */
+  double reverse_shift = NAN, reverse_turn_deg = NAN;
   /** MI's stages (pcl_mi::AlignmentResult::stages) of this run; not written to the CSV. */
   std::vector<pcl_mi::StageTiming> stages;
   /** With -reuse_target, whether this MI run prepared a target it had not kept (the first

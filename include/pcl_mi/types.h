@@ -255,6 +255,18 @@ struct Verification {
    * rings) fall on one another and raise the evidence, whatever the surfaces hold; a
    * degenerate result there takes a fixed confidence (docs/method.md, "The verdict"). */
   bool sensors_in_place = false;
+  /** Results the reliability test refused (or passed with its search capped) with a
+   * confidence of at least 0.8 only, NaN otherwise: how far (in the clouds' units, at the
+   * target frame's origin; degrees) the alignment of the clouds swapped, from the inverse of
+   * the guess, ended from the result, inverted. */
+  double reverse_shift = std::numeric_limits<double>::quiet_NaN();
+  double reverse_turn_deg = std::numeric_limits<double>::quiet_NaN();
+  /** True where that alignment confirmed the result: it ended within 0.25 and 0.5 degrees,
+   * found no free direction and shared surface with a confidence of at least 0.5, and one of
+   * the two searches met its tolerance. The result then converged, with the confidence of
+   * such results, and, where it had none, the swapped alignment's covariance
+   * (docs/method.md, "The verdict"). */
+  bool reverse_confirmed = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It
    * treats the samples as independent; RegistrationCore::covarianceScale() says how much

@@ -54,7 +54,23 @@ def test_bundled_pairs_align_to_the_reference(sequence, source, target):
     assert result.transformation.shape == (4, 4) and result.transformation.dtype == np.float64
     assert result.evaluations > 0 and result.seconds > 0 and result.mutual_information > 0
     assert result.confidence >= 0.95 and result.reason == "" and result.refusal == "none"
+    assert not result.reverse_confirmed
     assert result.covariance.shape == (6, 6) and np.all(np.diag(result.covariance) > 0)
+
+
+def test_a_result_held_back_is_confirmed_by_the_clouds_swapped():
+    # The first bundled Livox pair, source the earlier scan (list.txt: 288 onto 272).
+    folder = os.path.join("data", "foreign_lidar", "livox_avia_hku1")
+    load = lambda name: np.fromfile(os.path.join(folder, "scans", name),
+                                    dtype=np.float32).reshape(-1, 4)
+    row = open(os.path.join(folder, "list.txt")).readline().split()
+    truth = np.linalg.inv(np.vstack([np.array(row[2:14], dtype=float).reshape(3, 4),
+                                     [0, 0, 0, 1]]))
+    result = pcl_mi.align(load("000272.bin"), load("000288.bin"))
+    translation, rotation = pose_error(result.transformation, truth)
+    assert result.converged and result.reverse_confirmed and result.reason == ""
+    assert translation < 0.1 and rotation < 0.5, (translation, rotation)
+    assert result.confidence >= 0.95 and np.all(np.diag(result.covariance) > 0)
 
 
 def test_an_unrelated_pair_is_not_trusted():

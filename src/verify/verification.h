@@ -33,6 +33,11 @@ constexpr double kUnsteadyConfidence = 0.06;
  * (docs/benchmarks.md, "Degenerate where the sensors stand where they were"). */
 constexpr double kInPlaceDegenerateConfidence = 0.04;
 
+/** Confidence of a result that the alignment of the clouds swapped confirmed
+ * (Verification::reverse_confirmed): the share of such results that were right
+ * (docs/benchmarks.md, "Confirmed by the clouds swapped"). */
+constexpr double kReverseConfirmedConfidence = 0.99;
+
 /** Fewest inliers (source samples on a target surface) that can hold six degrees of
  * freedom with room to spare; a result with fewer does not pass. */
 constexpr std::size_t kMinimumInliers = 30;

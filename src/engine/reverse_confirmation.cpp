@@ -1,0 +1,88 @@
+/*
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "engine/reverse_confirmation.h"
+
+#include "verify/verification.h"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+
+namespace pcl_mi {
+namespace core {
+
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+/** \a covariance of a left increment [delta, omega] of the pose \a pose's inverse, as one of
+ * \a pose: T' = D T gives T'^-1 = T^-1 D^-1, whose increment is T^-1 D^-1 T. */
+Matrix6d
+invertedCovariance(const Eigen::Matrix4d& pose, const Matrix6d& covariance)
+{
+  const Eigen::Matrix4d inverse = pose.inverse();
+  const Eigen::Matrix3d r = inverse.topLeftCorner<3, 3>();
+  const Eigen::Vector3d t = inverse.topRightCorner<3, 1>();
+  Eigen::Matrix3d cross;
+  cross << 0.0, -t.z(), t.y(), t.z(), 0.0, -t.x(), -t.y(), t.x(), 0.0;
+  Matrix6d a = Matrix6d::Zero();
+  a.topLeftCorner<3, 3>() = -r;
+  a.topRightCorner<3, 3>() = -cross * r;
+  a.bottomRightCorner<3, 3>() = -r;
+  return a * covariance * a.transpose();
+}
+
+} // namespace
+
+bool
+mayBeConfirmed(const AlignmentResult& result)
+{
+  const Verification& v = result.verification;
+  if (result.converged || !result.error.empty() || v.unsteady ||
+      !(v.confidence >= kConfirmableConfidence))
+    return false;
+  switch (v.refusal) {
+  case Refusal::Degenerate:
+  case Refusal::WeakEvidence:
+  case Refusal::SecondOptimum:
+    return true;
+  case Refusal::None: // passed, its search capped
+    return !result.search_converged;
+  case Refusal::LittleSharedSurface:
+    return false;
+  }
+  return false;
+}
+
+bool
+confirmWithTheReverse(const AlignmentResult& back, AlignmentResult& result)
+{
+  Verification& v = result.verification;
+  if (!back.error.empty())
+    return false;
+  const Eigen::Matrix4d difference = result.transformation * back.transformation;
+  v.reverse_shift = difference.topRightCorner<3, 1>().norm();
+  v.reverse_turn_deg =
+      Eigen::AngleAxisd(Eigen::Matrix3d(difference.topLeftCorner<3, 3>())).angle() * 180.0 /
+      M_PI;
+  const Verification& w = back.verification;
+  const bool holds = w.refusal != Refusal::Degenerate &&
+                     w.refusal != Refusal::LittleSharedSurface &&
+                     w.confidence >= kConfirmingConfidence;
+  const bool searched = result.search_converged || back.search_converged;
+  if (!holds || !searched || !(v.reverse_shift < kAgreementShift) ||
+      !(v.reverse_turn_deg < kAgreementTurnDeg))
+    return false;
+  v.reverse_confirmed = true;
+  v.confidence = kReverseConfirmedConfidence;
+  if (v.covariance.isZero())
+    v.covariance = invertedCovariance(back.transformation, w.covariance);
+  v.reason.clear();
+  v.refusal = Refusal::None;
+  result.converged = true;
+  return true;
+}
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,41 @@
+/*
+ * pcl_mi: a refused result confirmed by the alignment of the clouds swapped.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_mi/types.h>
+
+namespace pcl_mi {
+namespace core {
+
+/** Confidence from which a refused result is worth the alignment of the clouds swapped. */
+constexpr double kConfirmableConfidence = 0.8;
+/** Confidence from which that alignment's result may confirm it. */
+constexpr double kConfirmingConfidence = 0.5;
+/** How close (in the clouds' units, degrees) the swapped alignment's result, inverted, must
+ * end to the result: half the success bound's shift, a quarter of its turn. */
+constexpr double kAgreementShift = 0.25;
+constexpr double kAgreementTurnDeg = 0.5;
+
+/** \brief True where \a result, refused by the reliability test as degenerate, for weak
+ * evidence or a second optimum, or passed with its search capped, has a confidence of at least
+ * kConfirmableConfidence after judgeSteadiness(): worth aligning the clouds swapped. */
+bool
+mayBeConfirmed(const AlignmentResult& result);
+
+/** \brief Weighs \a back, the alignment of the clouds swapped from the inverse of the guess,
+ * against \a result: sets Verification::reverse_shift and reverse_turn_deg from the
+ * difference of \a result and the inverse of \a back's pose (the turn, and the shift of the
+ * target frame's origin, its sensor), and converges \a result where
+ * - \a back's verdict leaves no direction free and finds enough shared surface, with a
+ *   confidence of at least kConfirmingConfidence,
+ * - one of the two searches met its tolerance,
+ * - and the two end within kAgreementShift and kAgreementTurnDeg of each other.
+ * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
+ * direction), \a back's covariance carried over to its pose. Returns whether it confirmed. */
+bool
+confirmWithTheReverse(const AlignmentResult& back, AlignmentResult& result);
+
+} // namespace core
+} // namespace pcl_mi

@@ -1,0 +1,169 @@
+/*
+ * The alignment of the clouds swapped confirms a refused result only where it agrees, holds
+ * every direction itself, and one of the two searches met its tolerance; a confirmed result
+ * without a covariance of its own takes the swapped one's, carried over to its pose.
+ */
+#include "engine/reverse_confirmation.h"
+#include "verify/verification.h"
+
+#include <Eigen/Geometry>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using pcl_mi::AlignmentResult;
+using pcl_mi::Refusal;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+namespace {
+
+Eigen::Matrix4d
+pose(double x, double y, double z, double roll, double pitch, double yaw)
+{
+  Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
+  t.topLeftCorner<3, 3>() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  t.topRightCorner<3, 1>() << x, y, z;
+  return t;
+}
+
+/** A result held back for weak evidence at \a at, its search converged. */
+AlignmentResult
+heldBack(const Eigen::Matrix4d& at)
+{
+  AlignmentResult r;
+  r.transformation = at;
+  r.search_converged = true;
+  r.verification.refusal = Refusal::WeakEvidence;
+  r.verification.reason = "the evidence is weak";
+  r.verification.confidence = 0.9;
+  r.verification.covariance = Matrix6d::Identity() * 1e-4;
+  return r;
+}
+
+/** The swapped alignment's result at \a at, passing. */
+AlignmentResult
+swapped(const Eigen::Matrix4d& at)
+{
+  AlignmentResult b;
+  b.transformation = at;
+  b.search_converged = true;
+  b.converged = true;
+  b.verification.confidence = 0.99;
+  b.verification.covariance = Matrix6d::Identity() * 1e-4;
+  return b;
+}
+
+/** The left increment [delta, omega] that takes \a from to \a to (to = D from), to first order. */
+Eigen::Matrix<double, 6, 1>
+increment(const Eigen::Matrix4d& from, const Eigen::Matrix4d& to)
+{
+  const Eigen::Matrix4d d = to * from.inverse();
+  Eigen::Matrix<double, 6, 1> x;
+  x.head<3>() = d.topRightCorner<3, 1>();
+  const Eigen::Matrix3d w = d.topLeftCorner<3, 3>() - Eigen::Matrix3d::Identity();
+  x.tail<3>() << w(2, 1), w(0, 2), w(1, 0);
+  return x;
+}
+
+} // namespace
+
+TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
+{
+  const Eigen::Matrix4d at = pose(3.0, -1.0, 0.2, 0.05, -0.02, 0.6);
+  const AlignmentResult refused = heldBack(at);
+  ASSERT_TRUE(pcl_mi::core::mayBeConfirmed(refused));
+
+  AlignmentResult r = refused;
+  // 0.1 m and 0.3 deg apart: confirmed, with the share of such results.
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(
+      swapped((pose(0.1, 0.0, 0.0, 0.0, 0.0, 0.3 * M_PI / 180.0) * at).inverse()), r));
+  EXPECT_TRUE(r.converged);
+  EXPECT_TRUE(r.verification.reverse_confirmed);
+  EXPECT_TRUE(r.verification.reason.empty());
+  EXPECT_EQ(r.verification.refusal, Refusal::None);
+  EXPECT_DOUBLE_EQ(r.verification.confidence, pcl_mi::core::kReverseConfirmedConfidence);
+  EXPECT_NEAR(r.verification.reverse_turn_deg, 0.3, 1e-9);
+
+  // Too far apart in shift or in turn.
+  r = refused;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(
+      swapped((pose(0.3, 0.0, 0.0, 0.0, 0.0, 0.0) * at).inverse()), r));
+  EXPECT_FALSE(r.converged);
+  EXPECT_NEAR(r.verification.reverse_shift, 0.3, 1e-9);
+  r = refused;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(
+      swapped((pose(0.0, 0.0, 0.0, 0.6 * M_PI / 180.0, 0.0, 0.0) * at).inverse()), r));
+
+  // The other side leaves a direction free, shares too little surface, or is weak.
+  for (const Refusal refusal : {Refusal::Degenerate, Refusal::LittleSharedSurface}) {
+    AlignmentResult b = swapped(at.inverse());
+    b.verification.refusal = refusal;
+    r = refused;
+    EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(b, r));
+  }
+  AlignmentResult weak = swapped(at.inverse());
+  weak.verification.confidence = 0.4;
+  r = refused;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(weak, r));
+
+  // Neither search met its tolerance; one of the two is enough.
+  AlignmentResult capped = swapped(at.inverse());
+  capped.search_converged = false;
+  r = refused;
+  r.search_converged = false;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(capped, r));
+  r = refused;
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(capped, r));
+
+  // Not worth asking: unsteady, in place (its fixed confidence), too little surface.
+  r = refused;
+  r.verification.unsteady = true;
+  EXPECT_FALSE(pcl_mi::core::mayBeConfirmed(r));
+  r = refused;
+  r.verification.confidence = pcl_mi::core::kInPlaceDegenerateConfidence;
+  r.verification.refusal = Refusal::Degenerate;
+  EXPECT_FALSE(pcl_mi::core::mayBeConfirmed(r));
+  r = refused;
+  r.verification.refusal = Refusal::LittleSharedSurface;
+  EXPECT_FALSE(pcl_mi::core::mayBeConfirmed(r));
+  r = refused;
+  r.verification.refusal = Refusal::None; // passed, its search capped
+  r.search_converged = false;
+  EXPECT_TRUE(pcl_mi::core::mayBeConfirmed(r));
+}
+
+// A degenerate result has no covariance; the swapped one's, a left increment of the inverse
+// pose, becomes one of the result's pose: each unit variance of the swapped pose moves the
+// result as the increment it induces, to first order.
+TEST(ReverseConfirmation, ADegenerateResultTakesTheSwappedCovarianceCarriedOver)
+{
+  const Eigen::Matrix4d at = pose(4.0, 2.0, -0.5, 0.1, 0.05, -0.7);
+  const Eigen::Matrix4d back = at.inverse();
+  for (int k = 0; k < 6; ++k) {
+    SCOPED_TRACE(k);
+    AlignmentResult r = heldBack(at);
+    r.verification.refusal = Refusal::Degenerate;
+    r.verification.covariance.setZero();
+    AlignmentResult b = swapped(back);
+    b.verification.covariance = Matrix6d::Zero();
+    b.verification.covariance(k, k) = 1.0;
+    ASSERT_TRUE(pcl_mi::core::confirmWithTheReverse(b, r));
+    // Move the swapped pose by a small unit increment k and see where its inverse goes.
+    const double e = 1e-6;
+    Eigen::Matrix4d d = Eigen::Matrix4d::Identity();
+    if (k < 3)
+      d(k, 3) = e;
+    else
+      d.topLeftCorner<3, 3>() =
+          Eigen::AngleAxisd(e, Eigen::Vector3d::Unit(k - 3)).toRotationMatrix();
+    const Eigen::Matrix<double, 6, 1> moved = increment(at, (d * back).inverse()) / e;
+    const Matrix6d expected = moved * moved.transpose();
+    EXPECT_TRUE(r.verification.covariance.isApprox(expected, 1e-4))
+        << r.verification.covariance << "\n\n"
+        << expected;
+  }
+}
