@@ -33,8 +33,8 @@ reliability diagram), penalised for bends and for straying from the identity. Ev
 stays as it is. Refused results that restarts of the refinement found unsteady (the CSVs'
 restart columns; src/engine/steadiness.cpp), degenerate results that leave the sensors in
 place (the reason says so; src/verify/verification.cpp) and results the clouds swapped
-confirmed (converged with the reverse columns set; src/engine/reverse_confirmation.cpp)
-take a fixed confidence instead and stay out of the fit; the script prints how many of them
+were asked to confirm (the reverse columns set; src/engine/reverse_confirmation.cpp) take a
+fixed confidence instead and stay out of the fit; the script prints how many of them
 were right. A set named "unrelated"
 (scripts/unrelated_pairs.py) takes part in the fit and is left out of the acceptance
 diagram; its mean confidence is printed.
@@ -75,6 +75,9 @@ IN_PLACE_CONFIDENCE = 0.04
 # A result the alignment of the clouds swapped confirmed takes this confidence
 # (kReverseConfirmedConfidence, src/verify/verification.h).
 REVERSE_CONFIRMED_CONFIDENCE = 0.99
+# One it did not confirm (the reverse columns set, not converged) takes this
+# (kReverseUnconfirmedConfidence).
+REVERSE_UNCONFIRMED_CONFIDENCE = 0.77
 
 
 def passes_gate(row):
@@ -108,15 +111,17 @@ def load_lead(path):
 def load_fixed(path):
     """Per MI row of \a path, the fixed confidence it takes: UNSTEADY_CONFIDENCE for a refused
     result its restarts found unsteady, IN_PLACE_CONFIDENCE for another degenerate one that
-    leaves the sensors in place, REVERSE_CONFIRMED_CONFIDENCE for one the clouds swapped
-    confirmed, NaN for the rest (and where the file has no such columns)."""
+    leaves the sensors in place, REVERSE_CONFIRMED_CONFIDENCE or
+    REVERSE_UNCONFIRMED_CONFIDENCE for one the clouds swapped confirmed or did not, NaN for
+    the rest (and where the file has no such columns)."""
     with open(path) as f:
         rows = [r for r in csv.DictReader(f) if r["method"].startswith("mi-")]
     spread = lambda r, k: float(r.get(k) or "nan")
 
     def fixed(r):
-        if r["converged"] == "1" and not np.isnan(spread(r, "reverse_shift_m")):
-            return REVERSE_CONFIRMED_CONFIDENCE
+        if not np.isnan(spread(r, "reverse_shift_m")):
+            return (REVERSE_CONFIRMED_CONFIDENCE if r["converged"] == "1" else
+                    REVERSE_UNCONFIRMED_CONFIDENCE)
         if (r["converged"] == "0" and not np.isnan(spread(r, "restart_turn_deg")) and
                 not (spread(r, "restart_turn_deg") < STEADY_LIMITS[0] and
                      spread(r, "restart_shift_m") < STEADY_LIMITS[1])):
@@ -330,7 +335,8 @@ def calibration(sets, leads, fixed, model):
     for names, title in ((accepted, "the sets"), (["unrelated"], "unrelated")):
         for value, kind in ((UNSTEADY_CONFIDENCE, "unsteady"),
                             (IN_PLACE_CONFIDENCE, "degenerate in place"),
-                            (REVERSE_CONFIRMED_CONFIDENCE, "confirmed by the clouds swapped")):
+                            (REVERSE_CONFIRMED_CONFIDENCE, "confirmed by the clouds swapped"),
+                            (REVERSE_UNCONFIRMED_CONFIDENCE, "not confirmed by them")):
             u = np.concatenate([sets[n][1][fixed[n] == value] for n in names if n in sets] or
                                [[]])
             print("%s results (%s): %d, right %d (confidence %.2f)" % (

@@ -94,6 +94,7 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
       swapped((pose(0.3, 0.0, 0.0, 0.0, 0.0, 0.0) * at).inverse()), r));
   EXPECT_FALSE(r.converged);
   EXPECT_NEAR(r.verification.reverse_shift, 0.3, 1e-9);
+  EXPECT_DOUBLE_EQ(r.verification.confidence, pcl_mi::core::kReverseUnconfirmedConfidence);
   r = refused;
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(
       swapped((pose(0.0, 0.0, 0.0, 0.6 * M_PI / 180.0, 0.0, 0.0) * at).inverse()), r));
@@ -109,6 +110,14 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   weak.verification.confidence = 0.4;
   r = refused;
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(weak, r));
+
+  // A failed alignment of the clouds swapped changes nothing.
+  AlignmentResult failed = swapped(at.inverse());
+  failed.error = "no overlap";
+  r = refused;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(failed, r));
+  EXPECT_DOUBLE_EQ(r.verification.confidence, refused.verification.confidence);
+  EXPECT_TRUE(std::isnan(r.verification.reverse_shift));
 
   // Neither search met its tolerance; one of the two is enough.
   AlignmentResult capped = swapped(at.inverse());

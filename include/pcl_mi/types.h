@@ -178,9 +178,10 @@ refusalName(Refusal refusal);
 struct Verification {
   /** Probability that the result is within 0.5 m and 2 degrees of the true pose, from a
    * logistic model of the evidence below fitted on real scans of several sensors; for a
-   * refused result that restarts of the refinement find unsteady (restart_turn_deg), or a
-   * degenerate one that leaves the sensors in place (sensors_in_place), the share of such
-   * results that were right. */
+   * refused result that restarts of the refinement find unsteady (restart_turn_deg), a
+   * degenerate one that leaves the sensors in place (sensors_in_place), or one that the
+   * alignment of the clouds swapped confirmed or did not (reverse_confirmed), the share of
+   * such results that were right. */
   double confidence = 0.0;
   /** Empty when the result passes the reliability test, otherwise why not. */
   std::string reason;
@@ -264,8 +265,8 @@ struct Verification {
   /** True where that alignment confirmed the result: it ended within 0.25 and 0.5 degrees,
    * found no free direction and shared surface with a confidence of at least 0.5, and one of
    * the two searches met its tolerance. The result then converged, with the confidence of
-   * such results, and, where it had none, the swapped alignment's covariance
-   * (docs/method.md, "The verdict"). */
+   * such results, and, where it had none, the swapped alignment's covariance; one it did not
+   * confirm takes the share of those that were right (docs/method.md, "The verdict"). */
   bool reverse_confirmed = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It

@@ -72,8 +72,10 @@ confirmWithTheReverse(const AlignmentResult& back, AlignmentResult& result)
                      w.confidence >= kConfirmingConfidence;
   const bool searched = result.search_converged || back.search_converged;
   if (!holds || !searched || !(v.reverse_shift < kAgreementShift) ||
-      !(v.reverse_turn_deg < kAgreementTurnDeg))
+      !(v.reverse_turn_deg < kAgreementTurnDeg)) {
+    v.confidence = kReverseUnconfirmedConfidence;
     return false;
+  }
   v.reverse_confirmed = true;
   v.confidence = kReverseConfirmedConfidence;
   if (v.covariance.isZero())

@@ -33,7 +33,9 @@ mayBeConfirmed(const AlignmentResult& result);
  * - one of the two searches met its tolerance,
  * - and the two end within kAgreementShift and kAgreementTurnDeg of each other.
  * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
- * direction), \a back's covariance carried over to its pose. Returns whether it confirmed. */
+ * direction), \a back's covariance carried over to its pose; one it does not confirm takes
+ * kReverseUnconfirmedConfidence (nothing changes where \a back failed). Returns whether it
+ * confirmed. */
 bool
 confirmWithTheReverse(const AlignmentResult& back, AlignmentResult& result);
 

@@ -38,6 +38,11 @@ constexpr double kInPlaceDegenerateConfidence = 0.04;
  * (docs/benchmarks.md, "Confirmed by the clouds swapped"). */
 constexpr double kReverseConfirmedConfidence = 0.99;
 
+/** Confidence of a result that the alignment of the clouds swapped was asked to confirm and
+ * did not: the share of such results that were right (docs/benchmarks.md, "Confirmed by the
+ * clouds swapped"). */
+constexpr double kReverseUnconfirmedConfidence = 0.77;
+
 /** Fewest inliers (source samples on a target surface) that can hold six degrees of
  * freedom with room to spare; a result with fewer does not pass. */
 constexpr std::size_t kMinimumInliers = 30;
