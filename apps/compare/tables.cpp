@@ -159,7 +159,7 @@ printStages(const std::vector<Row>& rows, const std::vector<std::string>& method
       double stage[6] = {0, 0, 0, 0, 0, 1000.0 * row.seconds};
       for (const StageTiming& t : row.stages) {
         const bool verifying = t.name == "verification" || t.name == "second optimum" ||
-                               t.name == "steadiness";
+                               t.name == "steadiness" || t.name == "reverse confirmation";
         // The rest are the search's: "search ...", "restarts", "runners-up", "second
         // search", "shifted optima".
         const int k = t.name == "prepare" ? 0 : t.name == "refinement" ? 2 : verifying ? 3 : 1;
