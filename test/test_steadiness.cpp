@@ -59,7 +59,9 @@ TEST(Steadiness, TwoUnrelatedPlacesAreUnsteadyAndTakeTheUnsteadyShare)
   EXPECT_NE(evidenceConfidence(v), pcl_mi::core::kUnsteadyConfidence);
 }
 
-TEST(Steadiness, ACorridorFreeAlongItsLengthIsSteadyAndKeepsItsConfidence)
+// Steady, so it keeps more than the unsteady share; the clouds swapped, free along the same
+// length, do not confirm it, so it takes the share of such results instead of the evidence's.
+TEST(Steadiness, ACorridorFreeAlongItsLengthIsSteadyAndNotConfirmedByTheCloudsSwapped)
 {
   std::mt19937 rng(2);
   pcl_mi::PointList corridor;
@@ -81,5 +83,8 @@ TEST(Steadiness, ACorridorFreeAlongItsLengthIsSteadyAndKeepsItsConfidence)
   EXPECT_LT(v.restart_turn_deg, 1.0);
   EXPECT_LT(v.restart_shift, 0.25);
   EXPECT_FALSE(v.unsteady);
-  EXPECT_EQ(v.confidence, evidenceConfidence(v));
+  EXPECT_GE(evidenceConfidence(v), 0.8); // so worth the clouds swapped
+  EXPECT_FALSE(v.reverse_confirmed);
+  EXPECT_FALSE(std::isnan(v.reverse_shift));
+  EXPECT_EQ(v.confidence, pcl_mi::core::kReverseUnconfirmedConfidence);
 }
