@@ -3,6 +3,7 @@
  */
 #include "engine/reverse_confirmation.h"
 
+#include "util/left_increment.h"
 #include "verify/verification.h"
 
 #include <Eigen/Geometry>
@@ -24,11 +25,9 @@ invertedCovariance(const Eigen::Matrix4d& pose, const Matrix6d& covariance)
   const Eigen::Matrix4d inverse = pose.inverse();
   const Eigen::Matrix3d r = inverse.topLeftCorner<3, 3>();
   const Eigen::Vector3d t = inverse.topRightCorner<3, 1>();
-  Eigen::Matrix3d cross;
-  cross << 0.0, -t.z(), t.y(), t.z(), 0.0, -t.x(), -t.y(), t.x(), 0.0;
   Matrix6d a = Matrix6d::Zero();
   a.topLeftCorner<3, 3>() = -r;
-  a.topRightCorner<3, 3>() = -cross * r;
+  a.topRightCorner<3, 3>() = -crossMatrix(t) * r;
   a.bottomRightCorner<3, 3>() = -r;
   return a * covariance * a.transpose();
 }

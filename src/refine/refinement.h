@@ -5,6 +5,7 @@
 #pragma once
 
 #include "features/source_samples.h"
+#include "util/left_increment.h"
 
 #include <pcl_mi/types.h>
 
@@ -182,10 +183,7 @@ addToNormalEquations(const Eigen::Vector3f& q,
   // By blocks, [q]x A (-[q]x), [q]x A and A, and q x (A e) and A e: a third of the
   // multiplies of the dense 3x6 products.
   const Eigen::Vector3f v = information * e;
-  Eigen::Matrix3f skew;
-  skew << 0.0f, -q.z(), q.y(), //
-      q.z(), 0.0f, -q.x(),     //
-      -q.y(), q.x(), 0.0f;
+  const Eigen::Matrix3f skew = crossMatrix(q);
   const Eigen::Matrix3f b = skew * information;
   h.topLeftCorner<3, 3>().noalias() -= w * (b * skew);
   h.topRightCorner<3, 3>().noalias() += w * b;

@@ -1,6 +1,7 @@
 /*
  * pcl_mi: a small rigid motion applied on the left of a pose, the increment both the
- * refinement's steps and the verification's probes take.
+ * refinement's steps and the verification's probes take, and the cross-product matrix that
+ * carries such increments from one frame to another.
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #pragma once
@@ -10,6 +11,18 @@
 
 namespace pcl_mi {
 namespace core {
+
+/** \brief The cross-product matrix [\a v]x, with [v]x u = v x u for every u. */
+template <typename Scalar>
+inline Eigen::Matrix<Scalar, 3, 3>
+crossMatrix(const Eigen::Matrix<Scalar, 3, 1>& v)
+{
+  Eigen::Matrix<Scalar, 3, 3> m;
+  m << Scalar(0), -v.z(), v.y(), //
+      v.z(), Scalar(0), -v.x(),  //
+      -v.y(), v.x(), Scalar(0);
+  return m;
+}
 
 /** \brief Moves the pose (\a rotation, \a translation) by the left increment [\a omega,
  * \a delta]: rotation' = exp(omega) rotation, translation' = exp(omega) translation + delta,

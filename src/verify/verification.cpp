@@ -369,11 +369,7 @@ covarianceFrom(const PoseEvidence& at,
   const Matrix6d local =
       to_input * scale.asDiagonal() * scaled_covariance * scale.asDiagonal() * to_input.transpose();
   Matrix6d to_origin = Matrix6d::Identity();
-  Eigen::Matrix3d cross;
-  cross << 0.0, -target_centroid.z(), target_centroid.y(), //
-      target_centroid.z(), 0.0, -target_centroid.x(),      //
-      -target_centroid.y(), target_centroid.x(), 0.0;
-  to_origin.block<3, 3>(0, 3) = cross;
+  to_origin.block<3, 3>(0, 3) = crossMatrix(target_centroid);
   return to_origin * local * to_origin.transpose();
 }
 
