@@ -237,11 +237,33 @@ struct RegistrationCore::Impl {
    * the runners-up in search_optima. */
   bool stop_after_search = false;
   std::vector<FoundOptimum> search_optima;
-  /** The reverse search's core, made on first use and kept with its backends, buffers and
-   * prepared clouds; the revisions of this problem's clouds it holds (its source is this
-   * target). */
-  std::unique_ptr<RegistrationCore> reverse;
-  std::uint64_t reverse_target_revision = 0, reverse_source_revision = 0;
+  /** A core of its own that aligns this problem's clouds swapped, made on first use and kept
+   * with its backends, buffers and prepared clouds, and the revisions of this problem's
+   * clouds it holds. */
+  struct SwappedCore {
+    std::unique_ptr<RegistrationCore> aligner;
+    std::uint64_t target_revision = 0, source_revision = 0;
+
+    /** The core, handed \a problem's clouds swapped (its source as the target, its target as
+     * the source): only a cloud that changed since the last call, so that a reused target (a
+     * map) is not prepared anew at every alignment. Revisions start at 1. */
+    RegistrationCore&
+    holding(const core::PreparedProblem& problem)
+    {
+      if (target_revision != problem.sourceRevision()) {
+        aligner->setTargetView(problem.sourceInput());
+        target_revision = problem.sourceRevision();
+      }
+      if (source_revision != problem.targetRevision()) {
+        aligner->setSourceView(problem.targetInput());
+        source_revision = problem.targetRevision();
+      }
+      return *aligner;
+    }
+  };
+
+  /** The reverse search's core. */
+  SwappedCore reverse;
 
   /** Searches the target onto the source from the inverse of \a guess, with \a parameters
    * (those in use, so that the source's extent derives nothing) on at most
@@ -253,31 +275,22 @@ struct RegistrationCore::Impl {
                       int max_iterations,
                       AlignmentResult& result)
   {
-    if (!reverse) {
-      reverse = std::make_unique<RegistrationCore>();
-      reverse->impl_->stop_after_search = true;
-      reverse->impl_->problem.setSearchOnly(true);
+    if (!reverse.aligner) {
+      reverse.aligner = std::make_unique<RegistrationCore>();
+      reverse.aligner->impl_->stop_after_search = true;
+      reverse.aligner->impl_->problem.setSearchOnly(true);
     }
     Parameters reverse_parameters = parameters;
     reverse_parameters.search.reverse_search = false;
-    reverse->setParameters(reverse_parameters);
-    // Only a cloud that changed is handed over again, so that a reused target (a map) is not
-    // prepared anew as the reverse source at every untrusted alignment. Revisions start at 1.
-    if (reverse_target_revision != problem.sourceRevision()) {
-      reverse->setTargetView(problem.sourceInput());
-      reverse_target_revision = problem.sourceRevision();
-    }
-    if (reverse_source_revision != problem.targetRevision()) {
-      reverse->setSourceView(problem.targetInput());
-      reverse_source_revision = problem.targetRevision();
-    }
-    const AlignmentResult back = reverse->align(guess.inverse(), max_iterations);
+    reverse.aligner->setParameters(reverse_parameters);
+    RegistrationCore& searched = reverse.holding(problem);
+    const AlignmentResult back = searched.align(guess.inverse(), max_iterations);
     result.reverse_search = true;
     result.iterations += back.iterations;
     result.evaluations += back.evaluations;
     if (!back.error.empty())
-      reverse->impl_->search_optima.clear();
-    return reverse->impl_->search_optima;
+      searched.impl_->search_optima.clear();
+    return searched.impl_->search_optima;
   }
 
   /** The target searched onto the source, on what the cap (\a max_iterations) leaves. The
@@ -319,8 +332,7 @@ struct RegistrationCore::Impl {
   /** The alignment of the clouds swapped, a core of its own with the parameters as set, which
    * confirms none itself; made on first use and kept with its prepared clouds. */
   bool confirming = false;
-  std::unique_ptr<RegistrationCore> confirmation;
-  std::uint64_t confirmation_target_revision = 0, confirmation_source_revision = 0;
+  SwappedCore confirmation;
 
   /** Aligns the target onto the source from the inverse of \a guess, with the parameters
    * as set (\a requested) under a cap of its own (\a max_iterations: what this alignment's
@@ -336,21 +348,13 @@ struct RegistrationCore::Impl {
                               AlignmentResult& result)
   {
     core::StageClock clock;
-    if (!confirmation) {
-      confirmation = std::make_unique<RegistrationCore>();
-      confirmation->impl_->confirming = true;
+    if (!confirmation.aligner) {
+      confirmation.aligner = std::make_unique<RegistrationCore>();
+      confirmation.aligner->impl_->confirming = true;
     }
-    confirmation->setParameters(requested);
-    // As for the reverse search: a kept target (a map) is not prepared anew each time.
-    if (confirmation_target_revision != problem.sourceRevision()) {
-      confirmation->setTargetView(problem.sourceInput());
-      confirmation_target_revision = problem.sourceRevision();
-    }
-    if (confirmation_source_revision != problem.targetRevision()) {
-      confirmation->setSourceView(problem.targetInput());
-      confirmation_source_revision = problem.targetRevision();
-    }
-    const AlignmentResult back = confirmation->align(guess.inverse(), max_iterations);
+    confirmation.aligner->setParameters(requested);
+    const AlignmentResult back =
+        confirmation.holding(problem).align(guess.inverse(), max_iterations);
     core::confirmWithTheReverse(back, result);
     clock.end(result.stages, "reverse confirmation", back.evaluations);
   }
