@@ -104,6 +104,10 @@ miOptionTable(MiOptionSet set)
       {"-opencl_device", V::Numbers, "-opencl_device P,D",
        "OpenCL platform and device index as clinfo -l lists them (default:\n"
        "the first GPU, else the first device)"},
+      {"-units_per_metre", V::Number, "-units_per_metre U",
+       format("the clouds' units in a metre (1000 for millimetres): the verdict's\n"
+              "lengths are in metres, everything else follows the resolution (default %g)",
+              d.units_per_metre)},
       {"-batch", V::Text, "-batch auto|on|off",
        "hand the OpenCL backend a batch of poses per round trip (default auto:\n"
        "on a GPU, not on a CPU device); the same result either way"}};
@@ -228,6 +232,7 @@ applyMiOptions(int argc, char** argv, Parameters& p, int& max_iterations)
   p.refinement.method = refine ? Refinement::PointToDistribution : Refinement::None;
   readDouble(argc, argv, "-refinement_resolution", p.refinement.resolution);
   readInt(argc, argv, "-narrow_view_stages", p.refinement.narrow_view_stages);
+  readDouble(argc, argv, "-units_per_metre", p.units_per_metre);
   if (const char* v = optionValue(argc, argv, "-backend"))
     if (!parseBackend(v, p.backend.type))
       return std::string("-backend must be cpu, opencl or auto, got '") + v + "'";

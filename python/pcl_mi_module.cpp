@@ -164,6 +164,7 @@ toSettings(const py::kwargs& kwargs)
       {"opencl_platform", [&](const py::handle& v) { p.backend.opencl_platform = v.cast<int>(); }},
       {"opencl_device", [&](const py::handle& v) { p.backend.opencl_device = v.cast<int>(); }},
       {"num_threads", [&](const py::handle& v) { p.num_threads = v.cast<int>(); }},
+      {"units_per_metre", [&](const py::handle& v) { p.units_per_metre = v.cast<double>(); }},
   };
   for (const auto& [key, value] : kwargs) {
     const std::string name = key.cast<std::string>();

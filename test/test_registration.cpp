@@ -1534,3 +1534,48 @@ TEST(Registration, TheCloudsSwappedConfirmAResultTheVerdictHeldBack)
       [](const pcl_mi::StageTiming& t) { return t.name == "reverse confirmation"; });
   EXPECT_TRUE(swapped_counted);
 }
+
+TEST(Registration, TheVerdictInOtherUnitsIsTheOneInMetresWithTheUnitsSet)
+{
+  // The verdict keeps lengths in metres: a held-back result's restarts and its confirmation
+  // by the clouds swapped. This pair takes both ways to converge, one direction confirmed by
+  // the clouds swapped, the other with the turns the refinement holds; at 1024 units a metre
+  // neither converged until Parameters::units_per_metre said so. A power of two scales the
+  // points exactly.
+  Cloud::Ptr first, second;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", first, second, reference));
+  struct Verdict {
+    bool converged;
+    pcl_mi::Verification verification;
+  };
+  auto verdict = [](const Cloud::Ptr& source, const Cloud::Ptr& target, double units) {
+    const Eigen::Affine3f scale(Eigen::Scaling(static_cast<float>(units)));
+    Cloud::Ptr scaled_source(new Cloud), scaled_target(new Cloud);
+    pcl::transformPointCloud(*source, *scaled_source, scale);
+    pcl::transformPointCloud(*target, *scaled_target, scale);
+    pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+    pcl_mi::Parameters p = reg.getParameters();
+    p.units_per_metre = units;
+    reg.setParameters(p);
+    reg.setInputSource(scaled_source);
+    reg.setInputTarget(scaled_target);
+    Cloud aligned;
+    reg.align(aligned);
+    return Verdict{reg.hasConverged(), reg.getVerification()};
+  };
+  for (const bool swapped : {false, true}) {
+    SCOPED_TRACE(swapped ? "first onto second" : "second onto first");
+    const Cloud::Ptr& source = swapped ? first : second;
+    const Cloud::Ptr& target = swapped ? second : first;
+    const Verdict metres = verdict(source, target, 1.0);
+    const Verdict units = verdict(source, target, 1024.0);
+    EXPECT_TRUE(metres.converged) << metres.verification.reason;
+    EXPECT_EQ(units.converged, metres.converged) << units.verification.reason;
+    EXPECT_EQ(units.verification.reverse_confirmed, metres.verification.reverse_confirmed);
+    EXPECT_EQ(units.verification.unsteady, metres.verification.unsteady);
+    EXPECT_EQ(units.verification.refusal, metres.verification.refusal);
+    // The evidence follows the resolution, up to the rounding of a pose a millimetre apart.
+    EXPECT_NEAR(units.verification.confidence, metres.verification.confidence, 0.05);
+  }
+}

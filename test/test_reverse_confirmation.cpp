@@ -80,7 +80,7 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   AlignmentResult r = refused;
   // 0.1 m and 0.3 deg apart: confirmed, with the share of such results.
   EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(
-      swapped((pose(0.1, 0.0, 0.0, 0.0, 0.0, 0.3 * M_PI / 180.0) * at).inverse()), r));
+      swapped((pose(0.1, 0.0, 0.0, 0.0, 0.0, 0.3 * M_PI / 180.0) * at).inverse()), 1.0, r));
   EXPECT_TRUE(r.converged);
   EXPECT_TRUE(r.verification.reverse_confirmed);
   EXPECT_TRUE(r.verification.reason.empty());
@@ -91,31 +91,38 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   // Too far apart in shift or in turn.
   r = refused;
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(
-      swapped((pose(0.3, 0.0, 0.0, 0.0, 0.0, 0.0) * at).inverse()), r));
+      swapped((pose(0.3, 0.0, 0.0, 0.0, 0.0, 0.0) * at).inverse()), 1.0, r));
   EXPECT_FALSE(r.converged);
   EXPECT_NEAR(r.verification.reverse_shift, 0.3, 1e-9);
   EXPECT_DOUBLE_EQ(r.verification.confidence, pcl_mi::core::kReverseUnconfirmedConfidence);
   r = refused;
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(
-      swapped((pose(0.0, 0.0, 0.0, 0.6 * M_PI / 180.0, 0.0, 0.0) * at).inverse()), r));
+      swapped((pose(0.0, 0.0, 0.0, 0.6 * M_PI / 180.0, 0.0, 0.0) * at).inverse()), 1.0, r));
+  // The shift is in metres: in millimetres, 0.3 units is close and 300 are not.
+  r = refused;
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(
+      swapped((pose(0.3, 0.0, 0.0, 0.0, 0.0, 0.0) * at).inverse()), 1000.0, r));
+  r = refused;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(
+      swapped((pose(300.0, 0.0, 0.0, 0.0, 0.0, 0.0) * at).inverse()), 1000.0, r));
 
   // The other side leaves a direction free, shares too little surface, or is weak.
   for (const Refusal refusal : {Refusal::Degenerate, Refusal::LittleSharedSurface}) {
     AlignmentResult b = swapped(at.inverse());
     b.verification.refusal = refusal;
     r = refused;
-    EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(b, r));
+    EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(b, 1.0, r));
   }
   AlignmentResult weak = swapped(at.inverse());
   weak.verification.confidence = 0.4;
   r = refused;
-  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(weak, r));
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(weak, 1.0, r));
 
   // A failed alignment of the clouds swapped changes nothing.
   AlignmentResult failed = swapped(at.inverse());
   failed.error = "no overlap";
   r = refused;
-  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(failed, r));
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(failed, 1.0, r));
   EXPECT_DOUBLE_EQ(r.verification.confidence, refused.verification.confidence);
   EXPECT_TRUE(std::isnan(r.verification.reverse_shift));
 
@@ -124,9 +131,9 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   capped.search_converged = false;
   r = refused;
   r.search_converged = false;
-  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(capped, r));
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(capped, 1.0, r));
   r = refused;
-  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(capped, r));
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(capped, 1.0, r));
 
   // Not worth asking: unsteady, in place (its fixed confidence), too little surface.
   r = refused;
@@ -160,7 +167,7 @@ TEST(ReverseConfirmation, ADegenerateResultTakesTheSwappedCovarianceCarriedOver)
     AlignmentResult b = swapped(back);
     b.verification.covariance = Matrix6d::Zero();
     b.verification.covariance(k, k) = 1.0;
-    ASSERT_TRUE(pcl_mi::core::confirmWithTheReverse(b, r));
+    ASSERT_TRUE(pcl_mi::core::confirmWithTheReverse(b, 1.0, r));
     // Move the swapped pose by a small unit increment k and see where its inverse goes.
     const double e = 1e-6;
     Eigen::Matrix4d d = Eigen::Matrix4d::Identity();

@@ -237,9 +237,9 @@ struct Verification {
   /** Results the reliability test refuses only, NaN otherwise: the largest turn (degrees)
    * and shift (of the source's centroid, in the clouds' units) from the result to where the
    * refinement ends when restarted from the result turned 2 degrees either way about each
-   * axis of the target. From 1 degree or 0.25 on, half the success bound, the result is
-   * unsteady, and its confidence is the share of such results that were right
-   * (docs/method.md, "The verdict"). */
+   * axis of the target. From 1 degree or 0.25 m on (Parameters::units_per_metre), half the
+   * success bound, the result is unsteady, and its confidence is the share of such results
+   * that were right (docs/method.md, "The verdict"). */
   double restart_turn_deg = std::numeric_limits<double>::quiet_NaN();
   double restart_shift = std::numeric_limits<double>::quiet_NaN();
   /** True where those restarts reached half the success bound: the refinement does not hold

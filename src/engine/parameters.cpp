@@ -174,6 +174,8 @@ Parameters::validate() const
     s << "source subdivision must be 0..64, got " << sampling.source_subdivision;
   else if (num_threads < 1)
     s << "number of threads must be at least 1, got " << num_threads;
+  else if (!(units_per_metre > 0.0) || !std::isfinite(units_per_metre))
+    s << "units per metre must be positive and finite, got " << units_per_metre;
   else if (f.heading_starts < 1 || f.heading_starts > 360)
     s << "heading starts must be 1..360, got " << f.heading_starts;
   else if (f.position_starts < 0 || f.position_starts > 360)

@@ -355,7 +355,7 @@ struct RegistrationCore::Impl {
     confirmation.aligner->setParameters(requested);
     const AlignmentResult back =
         confirmation.holding(problem).align(guess.inverse(), max_iterations);
-    core::confirmWithTheReverse(back, result);
+    core::confirmWithTheReverse(back, requested.units_per_metre, result);
     clock.end(result.stages, "reverse confirmation", back.evaluations);
   }
 };

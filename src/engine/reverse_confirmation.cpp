@@ -55,7 +55,7 @@ mayBeConfirmed(const AlignmentResult& result)
 }
 
 bool
-confirmWithTheReverse(const AlignmentResult& back, AlignmentResult& result)
+confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, AlignmentResult& result)
 {
   Verification& v = result.verification;
   if (!back.error.empty())
@@ -70,7 +70,7 @@ confirmWithTheReverse(const AlignmentResult& back, AlignmentResult& result)
                      w.refusal != Refusal::LittleSharedSurface &&
                      w.confidence >= kConfirmingConfidence;
   const bool searched = result.search_converged || back.search_converged;
-  if (!holds || !searched || !(v.reverse_shift < kAgreementShift) ||
+  if (!holds || !searched || !(v.reverse_shift < kAgreementShiftMetres * units_per_metre) ||
       !(v.reverse_turn_deg < kAgreementTurnDeg)) {
     v.confidence = kReverseUnconfirmedConfidence;
     return false;

@@ -13,9 +13,10 @@ namespace core {
 constexpr double kConfirmableConfidence = 0.8;
 /** Confidence from which that alignment's result may confirm it. */
 constexpr double kConfirmingConfidence = 0.5;
-/** How close (in the clouds' units, degrees) the swapped alignment's result, inverted, must
- * end to the result: half the success bound's shift, a quarter of its turn. */
-constexpr double kAgreementShift = 0.25;
+/** How close (in metres, Parameters::units_per_metre, and degrees) the swapped alignment's
+ * result, inverted, must end to the result: half the success bound's shift, a quarter of its
+ * turn. */
+constexpr double kAgreementShiftMetres = 0.25;
 constexpr double kAgreementTurnDeg = 0.5;
 
 /** \brief True where \a result, refused by the reliability test as degenerate, for weak
@@ -31,13 +32,14 @@ mayBeConfirmed(const AlignmentResult& result);
  * - \a back's verdict leaves no direction free and finds enough shared surface, with a
  *   confidence of at least kConfirmingConfidence,
  * - one of the two searches met its tolerance,
- * - and the two end within kAgreementShift and kAgreementTurnDeg of each other.
+ * - and the two end within kAgreementShiftMetres (times \a units_per_metre) and
+ *   kAgreementTurnDeg of each other.
  * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
  * direction), \a back's covariance carried over to its pose; one it does not confirm takes
  * kReverseUnconfirmedConfidence (nothing changes where \a back failed). Returns whether it
  * confirmed. */
 bool
-confirmWithTheReverse(const AlignmentResult& back, AlignmentResult& result);
+confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, AlignmentResult& result);
 
 } // namespace core
 } // namespace pcl_mi

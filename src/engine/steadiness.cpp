@@ -20,9 +20,10 @@ namespace core {
 namespace {
 
 /** Half the success bound of the confidence (0.5 m and 2 degrees): a restart that ends this
- * far from the result or farther makes it unsteady. */
+ * far from the result or farther makes it unsteady. The shift is in metres
+ * (Parameters::units_per_metre). */
 constexpr double kSteadyTurnDeg = 1.0;
-constexpr double kSteadyShift = 0.25;
+constexpr double kSteadyShiftMetres = 0.25;
 
 } // namespace
 
@@ -59,7 +60,8 @@ judgeSteadiness(PreparedProblem& problem, const SearchSpace& space, AlignmentRes
   Verification& v = result.verification;
   v.restart_turn_deg = turn_deg;
   v.restart_shift = shift;
-  v.unsteady = !(turn_deg < kSteadyTurnDeg && shift < kSteadyShift);
+  const double steady_shift = kSteadyShiftMetres * problem.parameters().units_per_metre;
+  v.unsteady = !(turn_deg < kSteadyTurnDeg && shift < steady_shift);
   if (v.unsteady)
     v.confidence = kUnsteadyConfidence;
   // Within a voxel of each other, the scans' patterns share a centre and may hold a turn
