@@ -105,8 +105,9 @@ miOptionTable(MiOptionSet set)
        "OpenCL platform and device index as clinfo -l lists them (default:\n"
        "the first GPU, else the first device)"},
       {"-units_per_metre", V::Number, "-units_per_metre U",
-       format("the clouds' units in a metre (1000 for millimetres): the verdict's\n"
-              "lengths are in metres, everything else follows the resolution (default %g)",
+       format("the clouds' units in a metre (1000 for millimetres): a few lengths of\n"
+              "the verdict and the refinement are in metres, everything else follows\n"
+              "the resolution (default %g)",
               d.units_per_metre)},
       {"-batch", V::Text, "-batch auto|on|off",
        "hand the OpenCL backend a batch of poses per round trip (default auto:\n"

@@ -1535,26 +1535,29 @@ TEST(Registration, TheCloudsSwappedConfirmAResultTheVerdictHeldBack)
   EXPECT_TRUE(swapped_counted);
 }
 
-TEST(Registration, TheVerdictInOtherUnitsIsTheOneInMetresWithTheUnitsSet)
+TEST(Registration, InOtherUnitsWithTheUnitsSetTheResultIsTheOneInMetres)
 {
-  // The verdict keeps lengths in metres: a held-back result's restarts and its confirmation
-  // by the clouds swapped. This pair takes both ways to converge, one direction confirmed by
-  // the clouds swapped, the other with the turns the refinement holds; at 1024 units a metre
-  // neither converged until Parameters::units_per_metre said so. A power of two scales the
-  // points exactly.
+  // Everything follows the resolution but a few lengths kept in metres: the verdict's (a
+  // held-back result's restarts, its confirmation by the clouds swapped) and the
+  // refinement's (its smallest step, the lever arm that weighs its turns). With
+  // Parameters::units_per_metre set, clouds at 1024 units a metre (a power of two scales the
+  // points exactly) give the result in metres, verdict and confidence included. This pair
+  // takes both ways to converge, one direction confirmed by the clouds swapped, the other
+  // with the turns the refinement holds; before the setting, neither converged at 1024.
   Cloud::Ptr first, second;
   Eigen::Matrix4d reference;
   ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", first, second, reference));
-  struct Verdict {
+  struct Outcome {
     bool converged;
+    Eigen::Matrix4d pose; // translation in metres
     pcl_mi::Verification verification;
   };
-  auto verdict = [](const Cloud::Ptr& source, const Cloud::Ptr& target, double units) {
+  auto align = [](const Cloud::Ptr& source, const Cloud::Ptr& target, double units) {
     const Eigen::Affine3f scale(Eigen::Scaling(static_cast<float>(units)));
     Cloud::Ptr scaled_source(new Cloud), scaled_target(new Cloud);
     pcl::transformPointCloud(*source, *scaled_source, scale);
     pcl::transformPointCloud(*target, *scaled_target, scale);
-    pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+    pcl::MutualInformationRegistration<pcl::PointXYZ, pcl::PointXYZ, double> reg;
     pcl_mi::Parameters p = reg.getParameters();
     p.units_per_metre = units;
     reg.setParameters(p);
@@ -1562,20 +1565,22 @@ TEST(Registration, TheVerdictInOtherUnitsIsTheOneInMetresWithTheUnitsSet)
     reg.setInputTarget(scaled_target);
     Cloud aligned;
     reg.align(aligned);
-    return Verdict{reg.hasConverged(), reg.getVerification()};
+    Eigen::Matrix4d pose = reg.getFinalTransformation();
+    pose.topRightCorner<3, 1>() /= units;
+    return Outcome{reg.hasConverged(), pose, reg.getVerification()};
   };
   for (const bool swapped : {false, true}) {
     SCOPED_TRACE(swapped ? "first onto second" : "second onto first");
     const Cloud::Ptr& source = swapped ? first : second;
     const Cloud::Ptr& target = swapped ? second : first;
-    const Verdict metres = verdict(source, target, 1.0);
-    const Verdict units = verdict(source, target, 1024.0);
+    const Outcome metres = align(source, target, 1.0);
+    const Outcome units = align(source, target, 1024.0);
     EXPECT_TRUE(metres.converged) << metres.verification.reason;
     EXPECT_EQ(units.converged, metres.converged) << units.verification.reason;
+    EXPECT_TRUE(units.pose.isApprox(metres.pose, 1e-9));
     EXPECT_EQ(units.verification.reverse_confirmed, metres.verification.reverse_confirmed);
-    EXPECT_EQ(units.verification.unsteady, metres.verification.unsteady);
+    EXPECT_EQ(units.verification.free_turns_held, metres.verification.free_turns_held);
     EXPECT_EQ(units.verification.refusal, metres.verification.refusal);
-    // The evidence follows the resolution, up to the rounding of a pose a millimetre apart.
-    EXPECT_NEAR(units.verification.confidence, metres.verification.confidence, 0.05);
+    EXPECT_NEAR(units.verification.confidence, metres.verification.confidence, 1e-9);
   }
 }

@@ -324,10 +324,12 @@ struct Parameters {
    * refinement and the verification split their work over two. The result is the same for
    * any number of threads. */
   int num_threads = 2;
-  /** How many of the clouds' units make a metre (1000 for millimetres). The search, the
-   * refinement and the evidence follow the resolution, but the verdict keeps lengths in
-   * metres: the confidence is fitted to results within 0.5 m of the true pose, and the tests
-   * of a held-back result ask for half of that (docs/method.md, "The verdict"). */
+  /** How many of the clouds' units make a metre (1000 for millimetres). Everything follows
+   * the resolution but a few lengths kept in metres, which follow this: the verdict's (the
+   * confidence is fitted to results within 0.5 m of the true pose, and the tests of a
+   * held-back result ask for half of that; docs/method.md, "The verdict") and the
+   * refinement's smallest step and lever arm. Set, clouds in other units give the result in
+   * metres, scaled. */
   double units_per_metre = 1.0;
 
   /** \brief The paper's exact method: 1 m voxels and the [8 m, 8 m, 1 m, 0.1, 0.1, 0.8 rad]

@@ -30,6 +30,9 @@ refinementOptions(const Parameters& parameters, const Eigen::Matrix<bool, 6, 1>&
   options.max_iterations = parameters.refinement.max_iterations;
   options.num_threads = parameters.num_threads;
   options.active = active;
+  // Its two lengths are in metres; everything else it uses follows the resolution.
+  options.translation_epsilon *= parameters.units_per_metre;
+  options.lever_arm *= parameters.units_per_metre;
   return options;
 }
 

@@ -39,8 +39,6 @@ mix(std::uint64_t key)
   return key ^ (key >> 32);
 }
 
-/** Lever arm (m) that makes a rotation step comparable with a translation step. */
-constexpr double kLeverArm = 10.0;
 /** Cosine above which two successive steps count as the same direction. */
 constexpr double kSameDirection = 0.9;
 /** Largest extrapolation factor (a ratio of 0.75 between successive steps). */
@@ -49,13 +47,15 @@ constexpr double kMaxExtrapolation = 4.0;
 constexpr double kMaxRatio = 0.95;
 
 /** Factor for \a step given the previous one: 1 / (1 - ratio) when both point the same
- * way and shrink by that ratio, else 1. */
+ * way and shrink by that ratio, else 1; rotations count at \a lever_arm. */
 double
-extrapolation(const Eigen::Matrix<double, 6, 1>& step, const Eigen::Matrix<double, 6, 1>& previous)
+extrapolation(const Eigen::Matrix<double, 6, 1>& step,
+              const Eigen::Matrix<double, 6, 1>& previous,
+              double lever_arm)
 {
   Eigen::Matrix<double, 6, 1> a = step, b = previous;
-  a.head<3>() *= kLeverArm;
-  b.head<3>() *= kLeverArm;
+  a.head<3>() *= lever_arm;
+  b.head<3>() *= lever_arm;
   const double na = a.norm(), nb = b.norm();
   if (!(na > 0.0) || !(nb > 0.0) || a.dot(b) < kSameDirection * na * nb)
     return 1.0;
@@ -463,7 +463,7 @@ refineToDistributions(const TargetDistributions& target,
     // does: step / (1 - ratio), at most kMaxExtrapolation times the step.
     Vector6d xi = step;
     if (it > 0 && options.extrapolate)
-      xi *= extrapolation(step, previous_step);
+      xi *= extrapolation(step, previous_step, options.lever_arm);
     previous_step = step;
     applyLeftIncrement(xi.head<3>(), xi.tail<3>(), result.rotation, result.translation);
     result.iterations = it + 1;

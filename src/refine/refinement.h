@@ -143,9 +143,12 @@ visitInCubes(const TargetDistributions& target,
 struct RefinementOptions {
   int max_iterations = 20;
   /** Stop once a Gauss-Newton step (before extrapolation) rotates less than this (rad)
-   * and translates less than translation_epsilon (m). */
+   * and translates less than translation_epsilon (in the clouds' units; 0.5 mm). */
   double rotation_epsilon = 5e-5;
   double translation_epsilon = 5e-4;
+  /** Lever arm (in the clouds' units; 10 m) that makes a rotation step comparable with a
+   * translation step when successive steps are compared for extrapolation. */
+  double lever_arm = 10.0;
   /** Which of [tx, ty, tz, roll, pitch, yaw] may change (rotations about the target's
    * axes); the others keep the starting pose's value, as in a search with zero steps. */
   Eigen::Matrix<bool, 6, 1> active = Eigen::Matrix<bool, 6, 1>::Constant(true);
