@@ -262,9 +262,9 @@ struct Verification {
    * the guess, ended from the result, inverted. */
   double reverse_shift = std::numeric_limits<double>::quiet_NaN();
   double reverse_turn_deg = std::numeric_limits<double>::quiet_NaN();
-  /** True where that alignment confirmed the result: it ended within 0.25 and 0.5 degrees,
-   * found no free direction and shared surface with a confidence of at least 0.5, and one of
-   * the two searches met its tolerance. The result then converged, with the confidence of
+  /** True where that alignment confirmed the result: it ended within 0.25 m
+   * (Parameters::units_per_metre) and 0.5 degrees, and found no free direction and shared
+   * surface with a confidence of at least 0.5. The result then converged, with the confidence of
    * such results, and, where it had none, the swapped alignment's covariance; one it did not
    * confirm takes the share of those that were right (docs/method.md, "The verdict"). */
   bool reverse_confirmed = false;

@@ -69,8 +69,7 @@ confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, Align
   const bool holds = w.refusal != Refusal::Degenerate &&
                      w.refusal != Refusal::LittleSharedSurface &&
                      w.confidence >= kConfirmingConfidence;
-  const bool searched = result.search_converged || back.search_converged;
-  if (!holds || !searched || !(v.reverse_shift < kAgreementShiftMetres * units_per_metre) ||
+  if (!holds || !(v.reverse_shift < kAgreementShiftMetres * units_per_metre) ||
       !(v.reverse_turn_deg < kAgreementTurnDeg)) {
     v.confidence = kReverseUnconfirmedConfidence;
     return false;

@@ -31,13 +31,14 @@ mayBeConfirmed(const AlignmentResult& result);
  * target frame's origin, its sensor), and converges \a result where
  * - \a back's verdict leaves no direction free and finds enough shared surface, with a
  *   confidence of at least kConfirmingConfidence,
- * - one of the two searches met its tolerance,
  * - and the two end within kAgreementShiftMetres (times \a units_per_metre) and
  *   kAgreementTurnDeg of each other.
  * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
  * direction), \a back's covariance carried over to its pose; one it does not confirm takes
- * kReverseUnconfirmedConfidence (nothing changes where \a back failed). Returns whether it
- * confirmed. */
+ * kReverseUnconfirmedConfidence (nothing changes where \a back failed). Whether either
+ * search met its tolerance does not matter: two searches that end at one pose from opposite
+ * sides found one optimum, however wide their simplices still were at the cap. Returns
+ * whether it confirmed. */
 bool
 confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, AlignmentResult& result);
 
