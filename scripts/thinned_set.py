@@ -71,7 +71,7 @@ def main():
     else:
         with open(os.path.join(args.out, "list.txt"), "w") as f:
             f.writelines(lines)
-    print("%d scans, every %d-th point, coordinates times %g, in %s"
+    print("%d scans, 1 point in %d kept, coordinates times %g, in %s"
           % (len(scans), args.keep_every, args.scale, args.out))
     return 0
 
