@@ -1507,6 +1507,28 @@ TEST(Registration, AFreeTurnThatTheRefinementHoldsConverges)
   EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
 }
 
+// The same pair with the search capped at 300 iterations: the refinement's hold does not
+// depend on whether the simplex met its tolerance, so the turn is held all the same, and the
+// result passes as a capped one does, for the clouds swapped to confirm.
+TEST(Registration, AFreeTurnThatTheRefinementHoldsIsHeldWhereTheSearchWasCapped)
+{
+  Cloud::Ptr source, target;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 3));
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setMaximumIterations(300);
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud aligned;
+  reg.align(aligned);
+  const pcl_mi::Verification& v = reg.getVerification();
+  EXPECT_FALSE(reg.getLastResult().search_converged);
+  EXPECT_TRUE(v.free_turns_held);
+  EXPECT_TRUE(v.reverse_confirmed);
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+}
+
 // The first bundled Livox pair (2.9 m and 38 deg apart on a walk) the other way, source the
 // earlier scan: the verdict holds the result back, and the alignment of the clouds swapped,
 // from the inverse of the guess, ends within 0.25 m and 0.5 deg of it and confirms it.

@@ -294,8 +294,9 @@ judgeWithTurnsHeld(PreparedProblem& problem, AlignmentResult& result)
   if (!held.reason.empty())
     return;
   result.verification = std::move(held);
-  result.converged = true;
-  refuseASecondOptimum(problem, result);
+  result.converged = result.search_converged;
+  if (result.converged)
+    refuseASecondOptimum(problem, result);
 }
 
 } // namespace core

@@ -83,10 +83,10 @@ finishTheKeptRunnerUp(PreparedProblem& problem,
 bool
 sensorsApart(const PreparedProblem& problem, const Eigen::Matrix4d& pose);
 
-/** \brief Judges \a result, whose search converged and which was refused only for free
- * turns that the refinement holds, again with those turns held (Verification::free_turns_held):
- * where it then passes, it converges and takes the second-optimum test; otherwise it stays
- * as it was. */
+/** \brief Judges \a result, refused only for free turns that the refinement holds, again with
+ * those turns held (Verification::free_turns_held): where it then passes, it converges and
+ * takes the second-optimum test if its search converged, and is a passed result whose search
+ * was capped if not; otherwise it stays as it was. */
 void
 judgeWithTurnsHeld(PreparedProblem& problem, AlignmentResult& result);
 

@@ -68,7 +68,7 @@ judgeSteadiness(PreparedProblem& problem, const SearchSpace& space, AlignmentRes
   // about it by themselves (a spinning sensor's rings on a road, a narrow view turned on the
   // spot): a steady result there says nothing of its turns (docs/benchmarks.md, "Free turns
   // the refinement holds").
-  else if (v.refusal == Refusal::Degenerate && onlyTurnsFree(v) && result.search_converged &&
+  else if (v.refusal == Refusal::Degenerate && onlyTurnsFree(v) &&
            sensorsApart(problem, result.transformation))
     judgeWithTurnsHeld(problem, result);
   clock.end(result.stages, "steadiness", restarts);

@@ -19,9 +19,10 @@ namespace core {
  * farthest any restart ends from it; a restart the refinement discards counts as infinitely
  * far, and ends the restarts. Where that reaches half the success bound, the result is
  * unsteady (Verification::unsteady) and its confidence becomes kUnsteadyConfidence. A steady
- * result refused only for free turns, whose search converged and which puts the sensors (the
- * input frames' origins) more than a voxel apart, is judged again with those turns held
- * (judgeWithTurnsHeld()). No pose changes. Converged results, and alignments
+ * result refused only for free turns which puts the sensors (the input frames' origins) more
+ * than a voxel apart is judged again with those turns held (judgeWithTurnsHeld()): the
+ * refinement's hold does not depend on whether the search met its tolerance. No pose
+ * changes. Converged results, and alignments
  * without the refinement, are left as they are: their restarts would cost six refinements for
  * nothing the verdict uses. */
 void
