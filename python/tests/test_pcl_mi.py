@@ -73,6 +73,25 @@ def test_a_result_held_back_is_confirmed_by_the_clouds_swapped():
     assert result.confidence >= 0.95 and np.all(np.diag(result.covariance) > 0)
 
 
+def test_clouds_in_other_units_give_the_result_in_metres_with_the_units_set():
+    # The same held-back pair at 1024 units a metre (a power of two scales exactly): with
+    # units_per_metre the verdict, the confidence and the pose are those in metres.
+    folder = os.path.join("data", "foreign_lidar", "livox_avia_hku1")
+    load = lambda name: np.fromfile(os.path.join(folder, "scans", name),
+                                    dtype=np.float32).reshape(-1, 4)
+    source, target = load("000272.bin"), load("000288.bin")
+    metres = pcl_mi.align(source, target)
+    scaled = [np.hstack([cloud[:, :3] * np.float32(1024), cloud[:, 3:]])
+              for cloud in (source, target)]
+    units = pcl_mi.align(*scaled, units_per_metre=1024.0)
+    assert units.converged == metres.converged
+    assert units.reverse_confirmed == metres.reverse_confirmed
+    assert units.confidence == pytest.approx(metres.confidence, abs=1e-9)
+    pose = units.transformation.copy()
+    pose[:3, 3] /= 1024.0
+    assert np.allclose(pose, metres.transformation, rtol=0, atol=1e-9)
+
+
 def test_an_unrelated_pair_is_not_trusted():
     result = pcl_mi.align(scan("02", 0), scan("00", 0))
     assert not result.converged and result.reason != ""
@@ -177,6 +196,7 @@ def test_the_coarsest_level_can_search_on_mi_alone(pair):
     (lambda s, t: pcl_mi.align(s, t, narrow_view_scanned_starts=9), "narrow-view scanned starts"),
     (lambda s, t: pcl_mi.align(s, t, refinement_narrow_view_stages=5),
      "narrow-view refinement stages"),
+    (lambda s, t: pcl_mi.align(s, t, units_per_metre=0.0), "units per metre"),
 ])
 def test_bad_input_raises_value_error_with_the_reason(pair, bad, reason):
     source, target, _ = pair
