@@ -4,6 +4,8 @@
  */
 #pragma once
 
+#include "verify/verification.h"
+
 #include <pcl_mi/types.h>
 
 namespace pcl_mi {
@@ -13,11 +15,10 @@ namespace core {
 constexpr double kConfirmableConfidence = 0.8;
 /** Confidence from which that alignment's result may confirm it. */
 constexpr double kConfirmingConfidence = 0.5;
-/** How close (in metres, Parameters::units_per_metre, and degrees) the swapped alignment's
- * result, inverted, must end to the result: half the success bound's shift, a quarter of its
- * turn. */
-constexpr double kAgreementShiftMetres = 0.25;
-constexpr double kAgreementTurnDeg = 0.5;
+/** How close the swapped alignment's result, inverted, must end to the result: half the
+ * success bound's shift, a quarter of its turn. */
+constexpr double kAgreementShiftMetres = kSuccessShiftMetres / 2.0;
+constexpr double kAgreementTurnDeg = kSuccessTurnDeg / 4.0;
 
 /** \brief True where \a result, refused by the reliability test as degenerate, for weak
  * evidence or a second optimum, or passed with its search capped, has a confidence of at least

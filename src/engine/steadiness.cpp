@@ -19,11 +19,10 @@ namespace core {
 
 namespace {
 
-/** Half the success bound of the confidence (0.5 m and 2 degrees): a restart that ends this
- * far from the result or farther makes it unsteady. The shift is in metres
- * (Parameters::units_per_metre). */
-constexpr double kSteadyTurnDeg = 1.0;
-constexpr double kSteadyShiftMetres = 0.25;
+/** Half the success bound of the confidence: a restart that ends this far from the result or
+ * farther makes it unsteady. */
+constexpr double kSteadyTurnDeg = kSuccessTurnDeg / 2.0;
+constexpr double kSteadyShiftMetres = kSuccessShiftMetres / 2.0;
 
 } // namespace
 

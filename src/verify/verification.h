@@ -22,6 +22,11 @@ namespace core {
 /** Confidence at or above which a result passes the reliability test: a result passes
  * when it is right with a probability of at least 95 %. */
 constexpr double kReliableConfidence = 0.95;
+/** The success bound the confidence is fitted to: a result within this shift (metres,
+ * Parameters::units_per_metre) and turn of the true pose is right. The tests of a held-back
+ * result derive their bounds from it. */
+constexpr double kSuccessShiftMetres = 0.5;
+constexpr double kSuccessTurnDeg = 2.0;
 
 /** Confidence of a refused result that restarts of the refinement find unsteady
  * (judgeSteadiness()): the share of such results that were right over the shared sets'
