@@ -1557,6 +1557,31 @@ TEST(Registration, TheCloudsSwappedConfirmAResultTheVerdictHeldBack)
   EXPECT_TRUE(swapped_counted);
 }
 
+// The fifth bundled Livox pair (5.9 m and 34 deg apart on a walk): the verdict holds every
+// direction but finds the evidence weak, and the alignment of the clouds swapped ends 0.06 m
+// and 0.1 deg away but leaves a direction free itself. A free side says nothing along its
+// free direction; the result's own evidence holds it, so the two together confirm it, and the
+// result keeps its own covariance. (Before, a free other side confirmed nothing, and this
+// result was held back.)
+TEST(Registration, ASideThatLeavesADirectionFreeConfirmsAResultThatHoldsEveryDirection)
+{
+  Cloud::Ptr source, target;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 4));
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud aligned;
+  reg.align(aligned);
+  const pcl_mi::Verification& v = reg.getVerification();
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_TRUE(v.reverse_confirmed);
+  EXPECT_LT(v.reverse_shift, 0.25);
+  EXPECT_LT(v.reverse_turn_deg, 0.5);
+  EXPECT_GT(reg.getCovariance().diagonal().minCoeff(), 0.0);
+  EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+}
+
 TEST(Registration, InOtherUnitsWithTheUnitsSetTheResultIsTheOneInMetres)
 {
   // Everything follows the resolution but a few lengths kept in metres: the verdict's (a

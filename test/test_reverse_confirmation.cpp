@@ -1,7 +1,8 @@
 /*
- * The alignment of the clouds swapped confirms a refused result only where it agrees, holds
- * every direction itself, and one of the two searches met its tolerance; a confirmed result
- * without a covariance of its own takes the swapped one's, carried over to its pose.
+ * The alignment of the clouds swapped confirms a refused result only where it agrees, shares
+ * surface with a confidence of its own, and holds every direction the result leaves free or
+ * names a second optimum in; a confirmed result without a covariance of its own takes the
+ * swapped one's, carried over to its pose.
  */
 #include "engine/reverse_confirmation.h"
 #include "verify/verification.h"
@@ -106,12 +107,31 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(
       swapped((pose(300.0, 0.0, 0.0, 0.0, 0.0, 0.0) * at).inverse()), 1000.0, r));
 
-  // The other side leaves a direction free, shares too little surface, or is weak.
-  for (const Refusal refusal : {Refusal::Degenerate, Refusal::LittleSharedSurface}) {
-    AlignmentResult b = swapped(at.inverse());
-    b.verification.refusal = refusal;
+  // The other side shares too little surface, or is weak.
+  AlignmentResult little = swapped(at.inverse());
+  little.verification.refusal = Refusal::LittleSharedSurface;
+  r = refused;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(little, 1.0, r));
+  // The other side leaves a direction free: it says nothing along it, so it confirms a result
+  // that holds every direction itself (weak evidence, or passed with its search capped), which
+  // keeps its own covariance, and not one that leaves a direction free or names a second
+  // optimum.
+  AlignmentResult free_side = swapped(at.inverse());
+  free_side.converged = false;
+  free_side.verification.refusal = Refusal::Degenerate;
+  free_side.verification.covariance.setZero();
+  r = refused;
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(free_side, 1.0, r));
+  EXPECT_TRUE(r.verification.covariance.isApprox(refused.verification.covariance));
+  r = refused;
+  r.verification.refusal = Refusal::None; // passed, its search capped
+  r.search_converged = false;
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(free_side, 1.0, r));
+  for (const Refusal own : {Refusal::Degenerate, Refusal::SecondOptimum}) {
     r = refused;
-    EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(b, 1.0, r));
+    r.verification.refusal = own;
+    EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(free_side, 1.0, r));
+    EXPECT_FALSE(r.converged);
   }
   AlignmentResult weak = swapped(at.inverse());
   weak.verification.confidence = 0.4;

@@ -66,7 +66,11 @@ confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, Align
       Eigen::AngleAxisd(Eigen::Matrix3d(difference.topLeftCorner<3, 3>())).angle() * 180.0 /
       M_PI;
   const Verification& w = back.verification;
-  const bool holds = w.refusal != Refusal::Degenerate &&
+  // A side that leaves a direction free says nothing along it, so it confirms only a result
+  // that holds every direction itself and names no second optimum.
+  const bool result_holds_all =
+      v.refusal == Refusal::None || v.refusal == Refusal::WeakEvidence;
+  const bool holds = (w.refusal != Refusal::Degenerate || result_holds_all) &&
                      w.refusal != Refusal::LittleSharedSurface &&
                      w.confidence >= kConfirmingConfidence;
   if (!holds || !(v.reverse_shift < kAgreementShiftMetres * units_per_metre) ||

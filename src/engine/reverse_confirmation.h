@@ -30,8 +30,10 @@ mayBeConfirmed(const AlignmentResult& result);
  * against \a result: sets Verification::reverse_shift and reverse_turn_deg from the
  * difference of \a result and the inverse of \a back's pose (the turn, and the shift of the
  * target frame's origin, its sensor), and converges \a result where
- * - \a back's verdict leaves no direction free and finds enough shared surface, with a
- *   confidence of at least kConfirmingConfidence,
+ * - \a back's verdict finds enough shared surface, with a confidence of at least
+ *   kConfirmingConfidence, and leaves no direction free, or \a result holds every direction
+ *   itself and names no second optimum (weak evidence, or passed with its search capped):
+ *   a free side says nothing along its free direction, the result's own evidence does,
  * - and the two end within kAgreementShiftMetres (times \a units_per_metre) and
  *   kAgreementTurnDeg of each other.
  * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
