@@ -1,8 +1,8 @@
 /*
  * The alignment of the clouds swapped confirms a refused result only where it agrees, shares
- * surface with a confidence of its own, and holds every direction the result leaves free or
- * names a second optimum in; a confirmed result without a covariance of its own takes the
- * swapped one's, carried over to its pose.
+ * surface with a confidence of its own, and holds every direction where the result leaves one
+ * free, names a second optimum or shares too little surface; a confirmed result without a
+ * covariance of its own takes the swapped one's, carried over to its pose.
  */
 #include "engine/reverse_confirmation.h"
 #include "verify/verification.h"
@@ -114,8 +114,8 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(little, 1.0, r));
   // The other side leaves a direction free: it says nothing along it, so it confirms a result
   // that holds every direction itself (weak evidence, or passed with its search capped), which
-  // keeps its own covariance, and not one that leaves a direction free or names a second
-  // optimum.
+  // keeps its own covariance, and not one that leaves a direction free, names a second optimum
+  // or shares too little surface.
   AlignmentResult free_side = swapped(at.inverse());
   free_side.converged = false;
   free_side.verification.refusal = Refusal::Degenerate;
@@ -127,7 +127,8 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   r.verification.refusal = Refusal::None; // passed, its search capped
   r.search_converged = false;
   EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(free_side, 1.0, r));
-  for (const Refusal own : {Refusal::Degenerate, Refusal::SecondOptimum}) {
+  for (const Refusal own :
+       {Refusal::Degenerate, Refusal::SecondOptimum, Refusal::LittleSharedSurface}) {
     r = refused;
     r.verification.refusal = own;
     EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(free_side, 1.0, r));
@@ -153,7 +154,7 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   r.search_converged = false;
   EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(capped, 1.0, r));
 
-  // Not worth asking: unsteady, in place (its fixed confidence), too little surface.
+  // Not worth asking: unsteady, in place (its fixed confidence), under 0.8.
   r = refused;
   r.verification.unsteady = true;
   EXPECT_FALSE(pcl_mi::core::mayBeConfirmed(r));
@@ -162,8 +163,16 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   r.verification.refusal = Refusal::Degenerate;
   EXPECT_FALSE(pcl_mi::core::mayBeConfirmed(r));
   r = refused;
-  r.verification.refusal = Refusal::LittleSharedSurface;
+  r.verification.confidence = 0.79;
   EXPECT_FALSE(pcl_mi::core::mayBeConfirmed(r));
+  // Too little shared surface on this side: the other side, sampling the other cloud, may
+  // find enough; one that holds every direction confirms it, with its covariance.
+  r = refused;
+  r.verification.refusal = Refusal::LittleSharedSurface;
+  r.verification.covariance.setZero();
+  EXPECT_TRUE(pcl_mi::core::mayBeConfirmed(r));
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(swapped(at.inverse()), 1.0, r));
+  EXPECT_FALSE(r.verification.covariance.isZero());
   r = refused;
   r.verification.refusal = Refusal::None; // passed, its search capped
   r.search_converged = false;

@@ -45,11 +45,10 @@ mayBeConfirmed(const AlignmentResult& result)
   case Refusal::Degenerate:
   case Refusal::WeakEvidence:
   case Refusal::SecondOptimum:
+  case Refusal::LittleSharedSurface:
     return true;
   case Refusal::None: // passed, its search capped
     return !result.search_converged;
-  case Refusal::LittleSharedSurface:
-    return false;
   }
   return false;
 }

@@ -21,8 +21,9 @@ constexpr double kAgreementShiftMetres = kSuccessShiftMetres / 2.0;
 constexpr double kAgreementTurnDeg = kSuccessTurnDeg / 4.0;
 
 /** \brief True where \a result, refused by the reliability test as degenerate, for weak
- * evidence or a second optimum, or passed with its search capped, has a confidence of at least
- * kConfirmableConfidence after judgeSteadiness(): worth aligning the clouds swapped. */
+ * evidence, a second optimum or too little shared surface, or passed with its search capped,
+ * has a confidence of at least kConfirmableConfidence after judgeSteadiness(): worth aligning
+ * the clouds swapped. */
 bool
 mayBeConfirmed(const AlignmentResult& result);
 
@@ -32,8 +33,9 @@ mayBeConfirmed(const AlignmentResult& result);
  * target frame's origin, its sensor), and converges \a result where
  * - \a back's verdict finds enough shared surface, with a confidence of at least
  *   kConfirmingConfidence, and leaves no direction free, or \a result holds every direction
- *   itself and names no second optimum (weak evidence, or passed with its search capped):
- *   a free side says nothing along its free direction, the result's own evidence does,
+ *   itself, on enough surface, and names no second optimum (weak evidence, or passed with
+ *   its search capped): a free side says nothing along its free direction, the result's own
+ *   evidence does,
  * - and the two end within kAgreementShiftMetres (times \a units_per_metre) and
  *   kAgreementTurnDeg of each other.
  * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
