@@ -265,9 +265,10 @@ struct Verification {
   /** True where that alignment confirmed the result: it ended within 0.25 m
    * (Parameters::units_per_metre) and 0.5 degrees, and found shared surface with a confidence
    * of at least 0.5 and no free direction (a free one only where the result holds every
-   * direction and names no second optimum). The result then converged, with the confidence
-   * of such results, and, where it had none, the swapped alignment's covariance; one it did
-   * not confirm takes the share of those that were right (docs/method.md, "The verdict"). */
+   * direction itself, on enough surface, and names no second optimum). The result then
+   * converged, with the confidence of such results, and, where it had none, the swapped
+   * alignment's covariance; one it did not confirm takes the share of those that were right
+   * (docs/method.md, "The verdict"). */
   bool reverse_confirmed = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It

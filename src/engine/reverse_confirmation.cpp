@@ -66,7 +66,7 @@ confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, Align
       M_PI;
   const Verification& w = back.verification;
   // A side that leaves a direction free says nothing along it, so it confirms only a result
-  // that holds every direction itself and names no second optimum.
+  // that holds every direction itself, on enough surface, and names no second optimum.
   const bool result_holds_all =
       v.refusal == Refusal::None || v.refusal == Refusal::WeakEvidence;
   const bool holds = (w.refusal != Refusal::Degenerate || result_holds_all) &&

@@ -45,8 +45,8 @@ constexpr double kReverseConfirmedConfidence = 0.99;
 
 /** Confidence of a result that the alignment of the clouds swapped was asked to confirm and
  * did not: the share of such results that were right (docs/benchmarks.md, "Confirmed by the
- * clouds swapped"; "A free side confirms a result that holds every direction" measured it
- * again, 0.72 over the shared sets and 0.79 over every list, and kept it). */
+ * clouds swapped"; measured again and kept in "A free side confirms a result that holds every
+ * direction"). */
 constexpr double kReverseUnconfirmedConfidence = 0.77;
 
 /** Fewest inliers (source samples on a target surface) that can hold six degrees of
