@@ -256,7 +256,9 @@ printVerdict(const Registration& reg, int max_iterations)
     print_info("The clouds swapped: ");
     print_value("ended %.3f away and %.2f deg from the result", v.reverse_shift,
                 v.reverse_turn_deg);
-    print_info(" (%s)\n", v.reverse_confirmed ? "confirms it" : "does not confirm it");
+    print_info(" (%s)\n", v.reverse_confirmed
+                              ? "confirms it"
+                              : ("does not confirm it: " + v.reverse_reason).c_str());
   }
   const Eigen::Matrix<double, 6, 6> covariance = reg.getCovariance();
   if (covariance.diagonal().maxCoeff() > 0.0) {

@@ -88,6 +88,7 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   EXPECT_EQ(r.verification.refusal, Refusal::None);
   EXPECT_DOUBLE_EQ(r.verification.confidence, pcl_mi::core::kReverseConfirmedConfidence);
   EXPECT_NEAR(r.verification.reverse_turn_deg, 0.3, 1e-9);
+  EXPECT_TRUE(r.verification.reverse_reason.empty());
 
   // Too far apart in shift or in turn.
   r = refused;
@@ -96,6 +97,7 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   EXPECT_FALSE(r.converged);
   EXPECT_NEAR(r.verification.reverse_shift, 0.3, 1e-9);
   EXPECT_DOUBLE_EQ(r.verification.confidence, pcl_mi::core::kReverseUnconfirmedConfidence);
+  EXPECT_EQ(r.verification.reverse_reason, "it ends more than 0.25 m or 0.5 deg away");
   r = refused;
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(
       swapped((pose(0.0, 0.0, 0.0, 0.6 * M_PI / 180.0, 0.0, 0.0) * at).inverse()), 1.0, r));
@@ -112,6 +114,7 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   little.verification.refusal = Refusal::LittleSharedSurface;
   r = refused;
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(little, 1.0, r));
+  EXPECT_EQ(r.verification.reverse_reason, "it shares too little surface itself");
   // The other side leaves a direction free: it says nothing along it, so it confirms a result
   // that holds every direction itself (weak evidence, or passed with its search capped), which
   // keeps its own covariance, and not one that leaves a direction free, names a second optimum
@@ -133,11 +136,14 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
     r.verification.refusal = own;
     EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(free_side, 1.0, r));
     EXPECT_FALSE(r.converged);
+    EXPECT_EQ(r.verification.reverse_reason.rfind("it leaves a direction free itself", 0), 0u)
+        << r.verification.reverse_reason;
   }
   AlignmentResult weak = swapped(at.inverse());
   weak.verification.confidence = 0.4;
   r = refused;
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(weak, 1.0, r));
+  EXPECT_EQ(r.verification.reverse_reason, "its own confidence, 0.40, is under 0.50");
 
   // A failed alignment of the clouds swapped changes nothing.
   AlignmentResult failed = swapped(at.inverse());
@@ -146,6 +152,7 @@ TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
   EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(failed, 1.0, r));
   EXPECT_DOUBLE_EQ(r.verification.confidence, refused.verification.confidence);
   EXPECT_TRUE(std::isnan(r.verification.reverse_shift));
+  EXPECT_TRUE(r.verification.reverse_reason.empty());
 
   // Neither search met its tolerance: agreement from opposite sides is enough.
   AlignmentResult capped = swapped(at.inverse());

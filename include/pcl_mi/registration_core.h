@@ -23,7 +23,8 @@ openClAvailable(std::string* reason = nullptr);
 /** \brief Why \a result (of an align() that did not fail) is not converged: the reliability
  * test's reason, how the iteration cap \a max_iterations ended the search, named as the
  * caller sets it (\a cap_name, e.g. "setMaximumIterations(2000)"), or both, the test's
- * first. Empty when it converged. */
+ * first; then, where the alignment of the clouds swapped was asked and did not confirm it,
+ * why not (Verification::reverse_reason). Empty when it converged. */
 std::string
 notConvergedCause(const AlignmentResult& result, int max_iterations, const std::string& cap_name);
 

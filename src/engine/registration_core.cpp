@@ -585,8 +585,13 @@ notConvergedCause(const AlignmentResult& result, int max_iterations, const std::
   if (result.converged)
     return {};
   const std::string& evidence = result.verification.reason;
+  const std::string& unconfirmed = result.verification.reverse_reason;
+  const std::string swapped =
+      unconfirmed.empty()
+          ? std::string()
+          : "; the alignment of the clouds swapped does not confirm it: " + unconfirmed;
   if (result.search_converged)
-    return evidence;
+    return evidence + swapped;
   const std::string cap = "(" + cap_name + ")";
   const std::string search =
       result.reverse_kept
@@ -608,7 +613,7 @@ notConvergedCause(const AlignmentResult& result, int max_iterations, const std::
                  : "the best search stopped at its share of the iteration cap " + cap) +
                 " before the simplex met its tolerances";
   // What the scene says first: more iterations would not change it.
-  return evidence.empty() ? search : evidence + "; and " + search;
+  return (evidence.empty() ? search : evidence + "; and " + search) + swapped;
 }
 
 bool

@@ -9,6 +9,8 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 
 namespace pcl_mi {
 namespace core {
@@ -69,12 +71,24 @@ confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, Align
   // that holds every direction itself, on enough surface, and names no second optimum.
   const bool result_holds_all =
       v.refusal == Refusal::None || v.refusal == Refusal::WeakEvidence;
-  const bool holds = (w.refusal != Refusal::Degenerate || result_holds_all) &&
-                     w.refusal != Refusal::LittleSharedSurface &&
-                     w.confidence >= kConfirmingConfidence;
-  if (!holds || !(v.reverse_shift < kAgreementShiftMetres * units_per_metre) ||
-      !(v.reverse_turn_deg < kAgreementTurnDeg)) {
+  std::ostringstream why;
+  if (!(v.reverse_shift < kAgreementShiftMetres * units_per_metre) ||
+      !(v.reverse_turn_deg < kAgreementTurnDeg))
+    why << "it ends more than " << kAgreementShiftMetres << " m or " << kAgreementTurnDeg
+        << " deg away";
+  else if (w.refusal == Refusal::LittleSharedSurface)
+    why << "it shares too little surface itself";
+  else if (w.refusal == Refusal::Degenerate && !result_holds_all)
+    why << "it leaves a direction free itself, and this result "
+        << (v.refusal == Refusal::Degenerate      ? "leaves one free too"
+            : v.refusal == Refusal::SecondOptimum ? "names a second optimum"
+                                                  : "shares too little surface");
+  else if (!(w.confidence >= kConfirmingConfidence))
+    why << "its own confidence, " << std::fixed << std::setprecision(2) << w.confidence
+        << ", is under " << kConfirmingConfidence;
+  if (!why.str().empty()) {
     v.confidence = kReverseUnconfirmedConfidence;
+    v.reverse_reason = why.str();
     return false;
   }
   v.reverse_confirmed = true;
