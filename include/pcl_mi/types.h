@@ -264,7 +264,7 @@ struct Verification {
   double reverse_turn_deg = std::numeric_limits<double>::quiet_NaN();
   /** Where that alignment did not confirm the result, why: "it ends more than 0.25 m or 0.5
    * deg away", "it shares too little surface itself", "it leaves a direction free itself,
-   * and this result ..." or "its own confidence, ..., is under 0.5". Empty where it
+   * and this result ..." or "its own confidence, ..., is under 0.50". Empty where it
    * confirmed the result or was not asked; getLastError() ends with it. */
   std::string reverse_reason;
   /** True where that alignment confirmed the result: it ended within 0.25 m
