@@ -181,7 +181,9 @@ struct Verification {
    * refused result that restarts of the refinement find unsteady (restart_turn_deg), a
    * degenerate one that leaves the sensors in place (sensors_in_place), or one that the
    * alignment of the clouds swapped confirmed or did not (reverse_confirmed), the share of
-   * such results that were right. */
+   * such results that were right. A result that passed on fewer than 60 inliers takes that
+   * times the chance its covariance gives it to lie within the bound (docs/method.md, "The
+   * verdict", step 7). */
   double confidence = 0.0;
   /** Empty when the result passes the reliability test, otherwise why not. */
   std::string reason;
@@ -271,8 +273,8 @@ struct Verification {
    * (Parameters::units_per_metre) and 0.5 degrees, and found shared surface with a confidence
    * of at least 0.5 and no free direction (a free one only where the result holds every
    * direction itself, on enough surface, and names no second optimum). The result then
-   * converged, with the confidence of such results, and, where it had none, the swapped
-   * alignment's covariance; one it did not confirm takes the share of those that were right
+   * converged (unless step 7 of the verdict holds a sparse one back), with the confidence of
+   * such results, and, where it had none, the swapped alignment's covariance; one it did not confirm takes the share of those that were right
    * (docs/method.md, "The verdict"). */
   bool reverse_confirmed = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and

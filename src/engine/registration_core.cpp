@@ -18,6 +18,7 @@
 #include "features/mutual_information.h"
 #include "search/coarse_to_fine.h"
 #include "util/stage_clock.h"
+#include "verify/bound_chance.h"
 #ifdef PCL_MI_WITH_OPENCL
 #include "backend/opencl_backend.h"
 #endif
@@ -499,6 +500,12 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   impl_->last.covariance = result.verification.covariance;
   impl_->last.preparation = problem.preparations();
   impl_->last.parameters = problem.parameters();
+  // Last, on the result as the caller gets it: the covariance as getCovariance() widens it.
+  if (!impl_->confirming && core::spreadMatters(result)) {
+    core::StageClock clock;
+    core::weighTheSpread(covarianceScale(), p.units_per_metre, result);
+    clock.end(result.stages, "sparse spread", 1);
+  }
   return result;
 }
 
