@@ -274,8 +274,8 @@ struct Verification {
    * of at least 0.5 and no free direction (a free one only where the result holds every
    * direction itself, on enough surface, and names no second optimum). The result then
    * converged (unless step 7 of the verdict holds a sparse one back), with the confidence of
-   * such results, and, where it had none, the swapped alignment's covariance; one it did not confirm takes the share of those that were right
-   * (docs/method.md, "The verdict"). */
+   * such results, and, where it had none, the swapped alignment's covariance; one it did not
+   * confirm takes the share of those that were right (docs/method.md, "The verdict"). */
   bool reverse_confirmed = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It

@@ -8,7 +8,6 @@
 #include <Eigen/Eigenvalues>
 
 #include <cmath>
-#include <cstdint>
 #include <iomanip>
 #include <random>
 #include <sstream>
