@@ -24,6 +24,17 @@ crossMatrix(const Eigen::Matrix<Scalar, 3, 1>& v)
   return m;
 }
 
+/** \brief The map of a left increment [delta, omega] about one point onto the same motion as
+ * an increment about the point \a offset from it: [delta + omega x offset, omega]. It carries
+ * an increment's covariance C to M C M^T. */
+inline Eigen::Matrix<double, 6, 6>
+incrementMovedBy(const Eigen::Vector3d& offset)
+{
+  Eigen::Matrix<double, 6, 6> m = Eigen::Matrix<double, 6, 6>::Identity();
+  m.topRightCorner<3, 3>() = -crossMatrix(offset);
+  return m;
+}
+
 /** \brief Moves the pose (\a rotation, \a translation) by the left increment [\a omega,
  * \a delta]: rotation' = exp(omega) rotation, translation' = exp(omega) translation + delta,
  * with exp(omega) the turn by |omega| about omega. */

@@ -58,10 +58,9 @@ chanceWithinBound(const Matrix6d& covariance,
 {
   if (covariance.isZero() || !covariance.allFinite())
     return 1.0;
-  // The error [e_t, omega] = J [t, omega]: a turn omega about the origin moves the pose's
-  // translation by omega x translation.
-  Matrix6d j = Matrix6d::Identity();
-  j.topRightCorner<3, 3>() = -crossMatrix(Eigen::Vector3d(pose.topRightCorner<3, 1>()));
+  // The error [e_t, omega]: a turn omega about the origin moves the pose's translation t by
+  // omega x t.
+  const Matrix6d j = incrementMovedBy(Eigen::Vector3d(pose.topRightCorner<3, 1>()));
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(j * covariance * j.transpose());
   if (eig.info() != Eigen::Success)
     return 1.0;

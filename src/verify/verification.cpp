@@ -368,8 +368,7 @@ covarianceFrom(const PoseEvidence& at,
   to_input.block<3, 3>(3, 3) = target_axes;
   const Matrix6d local =
       to_input * scale.asDiagonal() * scaled_covariance * scale.asDiagonal() * to_input.transpose();
-  Matrix6d to_origin = Matrix6d::Identity();
-  to_origin.block<3, 3>(0, 3) = crossMatrix(target_centroid);
+  const Matrix6d to_origin = incrementMovedBy(-target_centroid);
   return to_origin * local * to_origin.transpose();
 }
 
