@@ -1,14 +1,18 @@
 #!/usr/bin/python3
 """Which pose do the scans prefer, the reference or the estimate?
 
-Usage: reference_check.py COST_SURFACE_BINARY KITTI_ROOT RESULTS.csv METHOD [MIN_M [MAX_M]]
+Usage: reference_check.py COST_SURFACE_BINARY KITTI_ROOT|LIST RESULTS.csv METHOD [MIN_M [MAX_M]]
+                          [-wrong_converged]
 
-For every row of a pcl_mi_compare CSV (KITTI pairs) with the given method whose true motion
-lies in [MIN_M, MAX_M] m (default: all), runs `pcl_mi_cost_surface SOURCE TARGET REFERENCE
--toward ESTIMATE` and reads GICP's objective (plane-regularised covariances, k = 20, 5 m
+For every row of a pcl_mi_compare CSV with the given method whose true motion lies in
+[MIN_M, MAX_M] m (default: all), runs `pcl_mi_cost_surface SOURCE TARGET REFERENCE -toward
+ESTIMATE` and reads GICP's objective (plane-regularised covariances, k = 20, 5 m
 correspondences, as PCL's GICP; lower is better) on the line from the reference (s = 0) to
 the estimate (s = 1), 0.5 beyond either end. Prints per row the objective at both poses and
-where on the line it is lowest, then how many rows prefer the estimate.
+where on the line it is lowest, then how many rows prefer the estimate. The scans of a KITTI
+run (`pcl_mi_compare -kitti`) are found under KITTI_ROOT; those of a pair list's run
+(`pcl_mi_compare -list LIST`) in LIST, by the row's line number. With -wrong_converged, only
+the rows that said converged and miss the success bound (0.5 m, 2 deg) are checked.
 
 A reference that is less accurate than the alignment shows as rows whose objective is lower
 at the estimate, with the line's minimum near s = 1: the estimate's error then measures the
@@ -27,7 +31,28 @@ def write_matrix(path, row, kind):
         f.write("\n".join(" ".join(r) for r in rows) + "\n0 0 0 1\n")
 
 
+def scan_paths(root, row):
+    """Source and target scans of a CSV row: from the pair list ROOT (line = the row's
+    'source', the list's first scan the source of a forward row) or under a KITTI root."""
+    if os.path.isfile(root):
+        lines = open(root).read().splitlines()
+        words = lines[int(row["source"]) - 1].replace(",", " ").split()
+        folder = os.path.dirname(root)
+        first, second = (w if w.startswith("/") else os.path.join(folder, w) for w in words[:2])
+        return (first, second) if row["direction"] == "forward" else (second, first)
+    velodyne = os.path.join(root, "sequences", row["sequence"], "velodyne")
+    return (os.path.join(velodyne, "%06d.bin" % int(row["source"])),
+            os.path.join(velodyne, "%06d.bin" % int(row["target"])))
+
+
+def wrong_converged(row):
+    return row["converged"] == "1" and not (float(row["translation_error_m"]) < 0.5 and
+                                            float(row["rotation_error_deg"]) < 2.0)
+
+
 def main(argv):
+    only_wrong = "-wrong_converged" in argv
+    argv = [a for a in argv if a != "-wrong_converged"]
     if len(argv) not in (5, 6, 7):
         print(__doc__.strip(), file=sys.stderr)
         return 1
@@ -35,7 +60,12 @@ def main(argv):
     low = float(argv[5]) if len(argv) > 5 else 0.0
     high = float(argv[6]) if len(argv) > 6 else float("inf")
     rows = [r for r in csv.DictReader(open(results))
-            if r["method"] == method and low <= float(r["true_translation_m"]) <= high]
+            if r["method"] == method and low <= float(r["true_translation_m"]) <= high and
+            (not only_wrong or wrong_converged(r))]
+    if not rows and only_wrong:
+        print(f"no {method} row with motion in [{low}, {high}] m said converged and missed the"
+              " bound")
+        return 0
     if not rows:
         print(f"reference_check: no {method} rows with motion in [{low}, {high}] m in {results}",
               file=sys.stderr)
@@ -46,9 +76,7 @@ def main(argv):
     lowest_s = []
     with tempfile.TemporaryDirectory() as work:
         for r in rows:
-            velodyne = os.path.join(root, "sequences", r["sequence"], "velodyne")
-            source = os.path.join(velodyne, "%06d.bin" % int(r["source"]))
-            target = os.path.join(velodyne, "%06d.bin" % int(r["target"]))
+            source, target = scan_paths(root, r)
             reference, estimate = (os.path.join(work, f"{k}.txt") for k in ("ref", "est"))
             write_matrix(reference, r, "reference")
             write_matrix(estimate, r, "estimate")

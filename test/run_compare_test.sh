@@ -65,6 +65,14 @@ printf '# source target reference(4x4)\n%s %s %s\n' \
 "$compare" -list "$work/list.txt" -methods mi-varz -csv "$work/list.csv"
 awk -F, 'NR > 1 { n++; if ($10 >= 0.15 || $11 >= 0.5) bad++ } END { if (n != 2 || bad) exit 1 }' "$work/list.csv"
 grep -q ",backward," "$work/list.csv"
+# reference_check.py finds a list row's scans in the list, by the row's line number and
+# direction; none of these rows said converged and missed the bound.
+"$reference_check" "$cost_surface" "$work/list.txt" "$work/list.csv" mi-varz |
+  tee "$work/list_check.txt"
+grep -Eq "^ *list:2-2 +forward " "$work/list_check.txt"
+grep -Eq "^ *list:2-2 +backward " "$work/list_check.txt"
+"$reference_check" "$cost_surface" "$work/list.txt" "$work/list.csv" mi-varz -wrong_converged |
+  grep -q "^no mi-varz row with motion in .* said converged and missed the bound"
 
 # gicp-coarse (PCL GICP on 0.25 m voxel-filtered clouds) from half a metre off: converges.
 "$compare" -list "$work/list.txt" -methods gicp-coarse -perturb 0.5,2 -csv "$work/coarse.csv"
