@@ -2,7 +2,8 @@
  * The alignment of the clouds swapped confirms a refused result only where it agrees, shares
  * surface with a confidence of its own, and holds every direction where the result leaves one
  * free, names a second optimum or shares too little surface; a confirmed result without a
- * covariance of its own takes the swapped one's, carried over to its pose.
+ * covariance of its own takes the swapped one's, carried over to its pose. Where the result
+ * leaves only a turn free and the swapped side passes itself, the turn agrees within the bound.
  */
 #include "engine/reverse_confirmation.h"
 #include "verify/verification.h"
@@ -216,4 +217,58 @@ TEST(ReverseConfirmation, ADegenerateResultTakesTheSwappedCovarianceCarriedOver)
         << r.verification.covariance << "\n\n"
         << expected;
   }
+}
+
+// A result that leaves only a turn free ends anywhere along it; a swapped side that passes
+// every test itself holds that turn, so agreement within the success bound's turn confirms
+// it. A side that is weaker, or a result free along a shift, keeps the quarter-bound.
+TEST(ReverseConfirmation, ASwappedSideThatPassesHoldsAFreeTurnWithinTheBound)
+{
+  const Eigen::Matrix4d at = pose(2.0, 1.0, 0.1, 0.02, 0.01, 0.4);
+  AlignmentResult turn_free = heldBack(at);
+  turn_free.verification.refusal = Refusal::Degenerate;
+  turn_free.verification.reason = "degenerate along a turn";
+  turn_free.verification.covariance.setZero();
+  Eigen::Matrix<double, 6, 1> roll = Eigen::Matrix<double, 6, 1>::Zero();
+  roll[3] = 1.0;
+  turn_free.verification.observability_directions.col(0) = roll;
+  turn_free.verification.free_direction_contrast[0] = 0.0;
+  turn_free.verification.free_direction_contrast[1] = 1.0;
+  ASSERT_TRUE(pcl_mi::core::onlyTurnsFree(turn_free.verification));
+  ASSERT_TRUE(pcl_mi::core::mayBeConfirmed(turn_free));
+  const auto turned = [&](double roll_deg, double shift) {
+    return swapped((pose(shift, 0.0, 0.0, roll_deg * M_PI / 180.0, 0.0, 0.0) * at).inverse());
+  };
+
+  AlignmentResult r = turn_free;
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(turned(1.5, 0.0), 1.0, r));
+  EXPECT_TRUE(r.converged);
+  EXPECT_NEAR(r.verification.reverse_turn_deg, 1.5, 1e-9);
+  EXPECT_FALSE(r.verification.covariance.isZero()); // the swapped side's, carried over
+
+  r = turn_free;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(turned(2.5, 0.0), 1.0, r));
+  EXPECT_EQ(r.verification.reverse_reason, "it ends more than 0.25 m or 2 deg away");
+  r = turn_free;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(turned(1.0, 0.3), 1.0, r));
+
+  // A swapped side under kReliableConfidence, or one held back itself, holds nothing.
+  AlignmentResult unsure = turned(1.5, 0.0);
+  unsure.verification.confidence = 0.9;
+  r = turn_free;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(unsure, 1.0, r));
+  EXPECT_EQ(r.verification.reverse_reason, "it ends more than 0.25 m or 0.5 deg away");
+  AlignmentResult weak = turned(1.5, 0.0);
+  weak.verification.refusal = Refusal::WeakEvidence;
+  r = turn_free;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(weak, 1.0, r));
+
+  // A result free along a shift: its turn is its own evidence, as before.
+  AlignmentResult shift_free = turn_free;
+  shift_free.verification.observability_directions.col(0) << 1.0, 0.0, 0.0, 0.0, 0.0, 0.0;
+  ASSERT_FALSE(pcl_mi::core::onlyTurnsFree(shift_free.verification));
+  r = shift_free;
+  EXPECT_FALSE(pcl_mi::core::confirmWithTheReverse(turned(1.5, 0.0), 1.0, r));
+  r = shift_free;
+  EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(turned(0.3, 0.0), 1.0, r));
 }

@@ -56,6 +56,13 @@ mayBeConfirmed(const AlignmentResult& result)
 }
 
 bool
+holdsTheFreeTurn(const Verification& v, const Verification& w)
+{
+  return v.refusal == Refusal::Degenerate && onlyTurnsFree(v) && w.refusal == Refusal::None &&
+         w.confidence >= kReliableConfidence;
+}
+
+bool
 confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, AlignmentResult& result)
 {
   Verification& v = result.verification;
@@ -71,10 +78,15 @@ confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, Align
   // that holds every direction itself, on enough surface, and names no second optimum.
   const bool result_holds_all =
       v.refusal == Refusal::None || v.refusal == Refusal::WeakEvidence;
+  // Where the result leaves only a turn free, its own end along that turn is as good as
+  // arbitrary; a swapped side that passes every test itself holds the turn, so the two need
+  // only end within the success bound's turn of each other.
+  const double turn_tolerance =
+      holdsTheFreeTurn(v, w) ? kHeldFreeTurnAgreementDeg : kAgreementTurnDeg;
   std::ostringstream why;
   if (!(v.reverse_shift < kAgreementShiftMetres * units_per_metre) ||
-      !(v.reverse_turn_deg < kAgreementTurnDeg))
-    why << "it ends more than " << kAgreementShiftMetres << " m or " << kAgreementTurnDeg
+      !(v.reverse_turn_deg < turn_tolerance))
+    why << "it ends more than " << kAgreementShiftMetres << " m or " << turn_tolerance
         << " deg away";
   else if (w.refusal == Refusal::LittleSharedSurface)
     why << "it shares too little surface itself";

@@ -19,6 +19,9 @@ constexpr double kConfirmingConfidence = 0.5;
  * success bound's shift, a quarter of its turn. */
 constexpr double kAgreementShiftMetres = kSuccessShiftMetres / 2.0;
 constexpr double kAgreementTurnDeg = kSuccessTurnDeg / 4.0;
+/** How close in turn where the swapped alignment holds the turn that the result leaves free
+ * (holdsTheFreeTurn()): the success bound's turn. */
+constexpr double kHeldFreeTurnAgreementDeg = kSuccessTurnDeg;
 
 /** \brief True where \a result, refused by the reliability test as degenerate, for weak
  * evidence, a second optimum or too little shared surface, or passed with its search capped,
@@ -26,6 +29,13 @@ constexpr double kAgreementTurnDeg = kSuccessTurnDeg / 4.0;
  * the clouds swapped. */
 bool
 mayBeConfirmed(const AlignmentResult& result);
+
+/** \brief True where \a v, a result's verdict, refuses it as degenerate with only turns free
+ * (onlyTurnsFree()) and \a w, the swapped alignment's, passes every test itself, with a
+ * confidence of at least kReliableConfidence: that side holds the turn the result leaves
+ * free. */
+bool
+holdsTheFreeTurn(const Verification& v, const Verification& w);
 
 /** \brief Weighs \a back, the alignment of the clouds swapped from the inverse of the guess,
  * against \a result: sets Verification::reverse_shift and reverse_turn_deg from the
@@ -37,7 +47,8 @@ mayBeConfirmed(const AlignmentResult& result);
  *   its search capped): a free side says nothing along its free direction, the result's own
  *   evidence does,
  * - and the two end within kAgreementShiftMetres (times \a units_per_metre) and
- *   kAgreementTurnDeg of each other.
+ *   kAgreementTurnDeg of each other (kHeldFreeTurnAgreementDeg where \a back holds the turn
+ *   \a result leaves free, holdsTheFreeTurn()).
  * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
  * direction), \a back's covariance carried over to its pose; one it does not confirm takes
  * kReverseUnconfirmedConfidence (nothing changes where \a back failed). Whether either
