@@ -31,12 +31,12 @@ def write_matrix(path, row, kind):
         f.write("\n".join(" ".join(r) for r in rows) + "\n0 0 0 1\n")
 
 
-def scan_paths(root, row):
-    """Source and target scans of a CSV row: from the pair list ROOT (line = the row's
-    'source', the list's first scan the source of a forward row) or under a KITTI root."""
-    if os.path.isfile(root):
-        lines = open(root).read().splitlines()
-        words = lines[int(row["source"]) - 1].replace(",", " ").split()
+def scan_paths(root, list_lines, row):
+    """Source and target scans of a CSV row: from the pair list ROOT, read as list_lines
+    (line = the row's 'source', the list's first scan the source of a forward row), or under
+    a KITTI root (list_lines None)."""
+    if list_lines is not None:
+        words = list_lines[int(row["source"]) - 1].replace(",", " ").split()
         folder = os.path.dirname(root)
         first, second = (w if w.startswith("/") else os.path.join(folder, w) for w in words[:2])
         return (first, second) if row["direction"] == "forward" else (second, first)
@@ -74,9 +74,10 @@ def main(argv):
           f" {'lowest at s':>11}")
     prefer = 0
     lowest_s = []
+    list_lines = open(root).read().splitlines() if os.path.isfile(root) else None
     with tempfile.TemporaryDirectory() as work:
         for r in rows:
-            source, target = scan_paths(root, r)
+            source, target = scan_paths(root, list_lines, r)
             reference, estimate = (os.path.join(work, f"{k}.txt") for k in ("ref", "est"))
             write_matrix(reference, r, "reference")
             write_matrix(estimate, r, "estimate")
