@@ -266,18 +266,19 @@ struct Verification {
   double reverse_turn_deg = std::numeric_limits<double>::quiet_NaN();
   /** Where that alignment did not confirm the result, why: "it ends more than 0.25 m or 0.5
    * deg away" (2 deg where it holds a turn the result leaves free), "it shares too little
-   * surface itself", "it leaves a direction free itself,
-   * and this result ..." or "its own confidence, ..., is under 0.50". Empty where it
-   * confirmed the result or was not asked; getLastError() ends with it. */
+   * surface itself", "it leaves a direction free itself, and this result ..." or "its own
+   * confidence, ..., is under 0.50". Empty where it confirmed the result or was not asked;
+   * getLastError() ends with it. */
   std::string reverse_reason;
   /** True where that alignment confirmed the result: it ended within 0.25 m
    * (Parameters::units_per_metre) and 0.5 degrees (2 degrees where the result leaves only
    * turns free and that alignment passes every test itself, holding them), and found shared
-   * surface with a confidence of at least 0.5 and no free direction (a free one only where the result holds every
-   * direction itself, on enough surface, and names no second optimum). The result then
-   * converged (unless step 7 of the verdict holds a sparse one back), with the confidence of
-   * such results, and, where it had none, the swapped alignment's covariance; one it did not
-   * confirm takes the share of those that were right (docs/method.md, "The verdict"). */
+   * surface with a confidence of at least 0.5 and no free direction (a free one only where
+   * the result holds every direction itself, on enough surface, and names no second
+   * optimum). The result then converged (unless step 7 of the verdict holds a sparse one
+   * back), with the confidence of such results, and, where it had none, the swapped
+   * alignment's covariance; one it did not confirm takes the share of those that were right
+   * (docs/method.md, "The verdict"). */
   bool reverse_confirmed = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It
