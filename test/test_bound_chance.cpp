@@ -88,7 +88,7 @@ TEST(BoundChance, IsCertainWithoutACovarianceAndRepeats)
             core::chanceWithinBound(c, shiftedBy(3.0), 0.5, 2.0));
 }
 
-TEST(BoundChance, MattersOnlyForSparseConvergedResultsWithACovariance)
+TEST(BoundChance, MattersOnlyForSparseResultsConvergedByTheirOwnTestsWithACovariance)
 {
   const Matrix6d c = alongOneAxis(0, 0.3);
   EXPECT_TRUE(core::spreadMatters(converged(core::kSparseInliers - 1, c)));
@@ -97,6 +97,10 @@ TEST(BoundChance, MattersOnlyForSparseConvergedResultsWithACovariance)
   AlignmentResult refused = converged(10, c);
   refused.converged = false;
   EXPECT_FALSE(core::spreadMatters(refused));
+  // The clouds swapped ending within the agreement tolerance measured its spread.
+  AlignmentResult confirmed = converged(10, c);
+  confirmed.verification.reverse_confirmed = true;
+  EXPECT_FALSE(core::spreadMatters(confirmed));
 }
 
 TEST(BoundChance, HoldsBackASparseResultSpreadWiderThanTheBound)

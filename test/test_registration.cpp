@@ -1135,6 +1135,29 @@ TEST(Registration, ASparseResultSpreadOverTheBoundIsHeldBack)
   EXPECT_FALSE(reg.getCovariance().isZero());
 }
 
+// The Livox walk, scan 276 onto 244 (8.5 m and 12.6 deg apart), from the identity: the
+// result is held back and the clouds swapped confirm it, on 55 inliers. Their agreement
+// measures the spread that the covariance's chance (step 7 of the verdict) would estimate,
+// so the result converges; before, that chance held it back for sparse evidence.
+TEST(Registration, ASparseResultTheCloudsSwappedConfirmConverges)
+{
+  Cloud::Ptr source, target;
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 5));
+  pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud aligned;
+  reg.align(aligned);
+  const pcl_mi::Verification& v = reg.getVerification();
+  ASSERT_LT(v.inliers, 60u) << "the premise: the evidence is sparse";
+  EXPECT_TRUE(v.reverse_confirmed) << reg.getLastError();
+  EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+  EXPECT_GE(reg.getConfidence(), 0.95);
+  EXPECT_FALSE(reg.getCovariance().isZero());
+  EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+}
+
 // The Livox walk, scan 168 onto 172: the search's best is not trusted and a runner-up whose
 // search was capped is kept. Finished, that runner-up refines to the same optimum (within
 // half a finest voxel), passes the verdict, and is taken although the finest grid's

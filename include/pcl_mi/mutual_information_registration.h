@@ -549,9 +549,9 @@ public:
    * 0.95. A result the verdict refuses for another reason (a free direction, a capped
    * search) keeps it, unless restarts of the refinement around it end apart
    * (Verification::restart_turn_deg): then it is the share of such results that were
-   * right. A result that passed on sparse evidence (under 60 inliers) takes it times the
-   * chance that getCovariance() gives it to lie within the bound. Read it together with
-   * hasConverged(). */
+   * right. A result that passed its own tests on sparse evidence (under 60 inliers) takes
+   * it times the chance that getCovariance() gives it to lie within the bound. Read it
+   * together with hasConverged(). */
   double
   getConfidence() const
   {
@@ -563,7 +563,7 @@ public:
    * about exp(increment) * getFinalTransformation(). Zero when the result is degenerate.
    * It is getVerification().covariance times core().covarianceScale(), which the first
    * call after an align() computes (a refinement on cells moved by half a cell), or align()
-   * itself for a result that passed on sparse evidence. */
+   * itself for a result that passed its own tests on sparse evidence. */
   Eigen::Matrix<double, 6, 6>
   getCovariance() const
   {

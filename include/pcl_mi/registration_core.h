@@ -101,10 +101,10 @@ public:
    * their surfaces: the result is refined again on cells moved by half a cell, and the move
    * is weighed against both covariances (docs/method.md, "The verdict", covariance). Computed
    * on the first call after an align() (about a refinement and a preparation of the target's
-   * cubes), or by align() for a result that passed on sparse evidence (step 7), then kept.
-   * 1 where that covariance is zero, and where new clouds have been prepared since (by
-   * evaluate()) or the grid, sampling, refinement or pinned parameters changed, which leaves
-   * nothing to refine it on as it was found. */
+   * cubes), or by align() for a result that passed its own tests on sparse evidence (step
+   * 7), then kept. 1 where that covariance is zero, and where new clouds have been prepared
+   * since (by evaluate()) or the grid, sampling, refinement or pinned parameters changed,
+   * which leaves nothing to refine it on as it was found. */
   double
   covarianceScale() const;
 

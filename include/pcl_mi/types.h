@@ -275,8 +275,8 @@ struct Verification {
    * turns free and that alignment passes every test itself, holding them), and found shared
    * surface with a confidence of at least 0.5 and no free direction (a free one only where
    * the result holds every direction itself, on enough surface, and names no second
-   * optimum). The result then converged (unless step 7 of the verdict holds a sparse one
-   * back), with the confidence of such results, and, where it had none, the swapped
+   * optimum). The result then converged, on sparse evidence too (their agreement measured
+   * its spread), with the confidence of such results, and, where it had none, the swapped
    * alignment's covariance; one it did not confirm takes the share of those that were right
    * (docs/method.md, "The verdict"). */
   bool reverse_confirmed = false;

@@ -79,7 +79,10 @@ bool
 spreadMatters(const AlignmentResult& result)
 {
   const Verification& v = result.verification;
-  return result.converged && v.inliers < kSparseInliers && !v.covariance.isZero();
+  // A result the clouds swapped confirmed has had its spread measured: another problem's
+  // alignment ended within the agreement tolerance of it.
+  return result.converged && !v.reverse_confirmed && v.inliers < kSparseInliers &&
+         !v.covariance.isZero();
 }
 
 void

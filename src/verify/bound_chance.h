@@ -30,9 +30,10 @@ chanceWithinBound(const Eigen::Matrix<double, 6, 6>& covariance,
                   double shift,
                   double turn_deg);
 
-/** \brief True where \a result converged on fewer than kSparseInliers inliers and has a
- * covariance: where the evidence is that sparse, the optimum may be the right one and the
- * pose still spread over more than the success bound. */
+/** \brief True where \a result converged by its own tests on fewer than kSparseInliers
+ * inliers and has a covariance: where the evidence is that sparse, the optimum may be the
+ * right one and the pose still spread over more than the success bound. False where the
+ * clouds swapped confirmed it (Verification::reverse_confirmed). */
 bool
 spreadMatters(const AlignmentResult& result);
 
