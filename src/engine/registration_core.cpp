@@ -222,6 +222,17 @@ struct RegistrationCore::Impl {
     std::optional<double> covariance_scale;
   } last;
 
+  /** Keeps \a result's pose and covariance, and what they were found on, for
+   * covarianceScale(); the scale, once computed, stays. */
+  void
+  remember(const AlignmentResult& result)
+  {
+    last.pose = result.transformation;
+    last.covariance = result.verification.covariance;
+    last.preparation = problem.preparations();
+    last.parameters = problem.parameters();
+  }
+
   /** True where the problem still holds the cells and the parameters the last result was
    * found with: no new clouds prepared, no grid, sampling, refinement or pinned parameter
    * changed. */
@@ -493,18 +504,21 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   if (narrow_view)
     lookAcross(problem, space, impl_->scratch, result, finest_normalized_mi);
   core::judgeSteadiness(problem, space, result);
-  if (!impl_->confirming && core::mayBeConfirmed(result))
-    impl_->confirmWithTheCloudsSwapped(problem.requestedParameters(), guess, max_iterations,
-                                       result);
-  impl_->last.pose = result.transformation;
-  impl_->last.covariance = result.verification.covariance;
-  impl_->last.preparation = problem.preparations();
-  impl_->last.parameters = problem.parameters();
-  // Last, on the result as the caller gets it: the covariance as getCovariance() widens it.
+  impl_->remember(result);
+  // A result that passed its own tests on sparse evidence asks its covariance first, as
+  // getCovariance() widens it; held back there, it is asked of the clouds swapped as any
+  // held-back result is, whose agreement measures its spread (docs/method.md, step 7).
+  bool held_for_spread = false;
   if (!impl_->confirming && core::spreadMatters(result)) {
     core::StageClock clock;
     core::weighTheSpread(covarianceScale(), p.units_per_metre, result);
     clock.end(result.stages, "sparse spread", 1);
+    held_for_spread = !result.converged;
+  }
+  if (!impl_->confirming && (held_for_spread || core::mayBeConfirmed(result))) {
+    impl_->confirmWithTheCloudsSwapped(problem.requestedParameters(), guess, max_iterations,
+                                       result);
+    impl_->remember(result); // with the covariance the clouds swapped may have supplied
   }
   return result;
 }
