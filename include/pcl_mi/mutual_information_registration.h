@@ -550,7 +550,9 @@ public:
    * search) keeps it, unless restarts of the refinement around it end apart
    * (Verification::restart_turn_deg): then it is the share of such results that were
    * right. A result that passed its own tests on sparse evidence (under 60 inliers) takes
-   * it times the chance that getCovariance() gives it to lie within the bound. Read it
+   * it times the chance that getCovariance() gives it to lie within the bound; where that
+   * holds it back, the clouds swapped are asked, and it is the share of the results they
+   * confirmed, or did not, that were right (Verification::reverse_confirmed). Read it
    * together with hasConverged(). */
   double
   getConfidence() const

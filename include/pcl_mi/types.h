@@ -181,9 +181,10 @@ struct Verification {
    * refused result that restarts of the refinement find unsteady (restart_turn_deg), a
    * degenerate one that leaves the sensors in place (sensors_in_place), or one that the
    * alignment of the clouds swapped confirmed or did not (reverse_confirmed), the share of
-   * such results that were right. A result that passed on fewer than 60 inliers takes that
-   * times the chance its covariance gives it to lie within the bound (docs/method.md, "The
-   * verdict", step 7). */
+   * such results that were right. A result that passed its own tests on fewer than 60
+   * inliers takes that times the chance its covariance gives it to lie within the bound,
+   * and where that holds it back, the share of the results the clouds swapped confirmed or
+   * did not (docs/method.md, "The verdict", step 7). */
   double confidence = 0.0;
   /** Empty when the result passes the reliability test, otherwise why not. */
   std::string reason;
@@ -259,7 +260,8 @@ struct Verification {
    * degenerate result there takes a fixed confidence (docs/method.md, "The verdict"). */
   bool sensors_in_place = false;
   /** Results the reliability test refused (or passed with its search capped) with a
-   * confidence of at least 0.8 only, NaN otherwise: how far (in the clouds' units, at the
+   * confidence of at least 0.8, and those held back for a sparse result's spread (step 7),
+   * only; NaN otherwise: how far (in the clouds' units, at the
    * target frame's origin; degrees) the alignment of the clouds swapped, from the inverse of
    * the guess, ended from the result, inverted. */
   double reverse_shift = std::numeric_limits<double>::quiet_NaN();
