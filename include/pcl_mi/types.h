@@ -261,9 +261,9 @@ struct Verification {
   bool sensors_in_place = false;
   /** Results the reliability test refused (or passed with its search capped) with a
    * confidence of at least 0.8, and those held back for a sparse result's spread (step 7),
-   * only; NaN otherwise: how far (in the clouds' units, at the
-   * target frame's origin; degrees) the alignment of the clouds swapped, from the inverse of
-   * the guess, ended from the result, inverted. */
+   * only; NaN otherwise: how far (in the clouds' units, at the target frame's origin;
+   * degrees) the alignment of the clouds swapped, from the inverse of the guess, ended from
+   * the result, inverted. */
   double reverse_shift = std::numeric_limits<double>::quiet_NaN();
   double reverse_turn_deg = std::numeric_limits<double>::quiet_NaN();
   /** Where that alignment did not confirm the result, why: "it ends more than 0.25 m or 0.5
