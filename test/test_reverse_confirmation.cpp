@@ -272,3 +272,29 @@ TEST(ReverseConfirmation, ASwappedSideThatPassesHoldsAFreeTurnWithinTheBound)
   r = shift_free;
   EXPECT_TRUE(pcl_mi::core::confirmWithTheReverse(turned(0.3, 0.0), 1.0, r));
 }
+
+// Two poses of one problem end together within the agreement tolerance that confirms a
+// result, measured as confirmWithTheReverse() measures a result against the swapped side.
+TEST(ReverseConfirmation, PosesEndTogetherWithinTheAgreementTolerance)
+{
+  const Eigen::Matrix4d at = pose(12.0, -3.0, 0.5, 0.02, -0.01, 0.7);
+  const auto moved = [&](double shift, double yaw_deg, double units) -> Eigen::Matrix4d {
+    return pose(shift * units, 0.0, 0.0, 0.0, 0.0, yaw_deg * M_PI / 180.0) * at;
+  };
+  EXPECT_TRUE(pcl_mi::core::endsTogether(at, at, 1.0));
+  EXPECT_TRUE(pcl_mi::core::endsTogether(moved(0.2, 0.4, 1.0), at, 1.0));
+  EXPECT_TRUE(pcl_mi::core::endsTogether(at, moved(0.2, 0.4, 1.0), 1.0));
+  EXPECT_FALSE(pcl_mi::core::endsTogether(moved(0.3, 0.0, 1.0), at, 1.0));
+  EXPECT_FALSE(pcl_mi::core::endsTogether(moved(0.0, 0.6, 1.0), at, 1.0));
+  // In millimetres the shift's tolerance is a thousand times the number.
+  EXPECT_TRUE(pcl_mi::core::endsTogether(moved(0.2, 0.0, 1000.0), at, 1000.0));
+  EXPECT_FALSE(pcl_mi::core::endsTogether(moved(0.3, 0.0, 1000.0), at, 1000.0));
+
+  // The measure is confirmWithTheReverse()'s: a swapped side at the other pose, inverted,
+  // confirms the result exactly where the two end together.
+  for (const Eigen::Matrix4d& other : {moved(0.2, 0.4, 1.0), moved(0.3, 0.0, 1.0)}) {
+    AlignmentResult r = heldBack(at);
+    EXPECT_EQ(pcl_mi::core::confirmWithTheReverse(swapped(other.inverse()), 1.0, r),
+              pcl_mi::core::endsTogether(other, at, 1.0));
+  }
+}

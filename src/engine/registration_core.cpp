@@ -345,6 +345,27 @@ struct RegistrationCore::Impl {
    * confirms none itself; made on first use and kept with its prepared clouds. */
   bool confirming = false;
   SwappedCore confirmation;
+  /** In that core: the result it is asked about, inverted (a pose of its own problem). */
+  std::optional<Eigen::Matrix4d> asked_about;
+
+  /** In the confirming core: where its own optimum (\a result) ends apart from the result it
+   * is asked about, weighs that result too, refined and judged as a runner-up is, on shared
+   * surface only. Its search may have missed the pose the other side found, as the reverse
+   * search often finds one this side missed; the finest grid's normalised MI, not the
+   * search, then says which of the two this side prefers (docs/method.md, step 6). */
+  void
+  weighTheResultAskedAbout(const core::SearchSpace& space,
+                           AlignmentResult& result,
+                           double& finest_normalized_mi)
+  {
+    if (core::endsTogether(result.transformation, *asked_about,
+                           problem.parameters().units_per_metre))
+      return;
+    core::StageClock clock;
+    core::takeIfAgreesBetter(problem, space, *asked_about, result.search_converged, true, scratch,
+                             result, finest_normalized_mi);
+    clock.end(result.stages, "result asked about", 1);
+  }
 
   /** Aligns the target onto the source from the inverse of \a guess, with the parameters
    * as set (\a requested) under a cap of its own (\a max_iterations: what this alignment's
@@ -365,8 +386,10 @@ struct RegistrationCore::Impl {
       confirmation.aligner->impl_->confirming = true;
     }
     confirmation.aligner->setParameters(requested);
+    confirmation.aligner->impl_->asked_about = result.transformation.inverse();
     const AlignmentResult back =
         confirmation.holding(problem).align(guess.inverse(), max_iterations);
+    confirmation.aligner->impl_->asked_about.reset();
     core::confirmWithTheReverse(back, requested.units_per_metre, result);
     clock.end(result.stages, "reverse confirmation", back.evaluations);
   }
@@ -501,6 +524,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   if (!result.verification.reason.empty() && p.search.reverse_search)
     impl_->judgeTheReverseOptima(space, costs, options, guess, max_iterations, result,
                                  finest_normalized_mi);
+  if (impl_->asked_about)
+    impl_->weighTheResultAskedAbout(space, result, finest_normalized_mi);
   if (narrow_view)
     lookAcross(problem, space, impl_->scratch, result, finest_normalized_mi);
   core::judgeSteadiness(problem, space, result);

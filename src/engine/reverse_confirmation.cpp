@@ -11,6 +11,8 @@
 #include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <tuple>
+#include <utility>
 
 namespace pcl_mi {
 namespace core {
@@ -34,7 +36,23 @@ invertedCovariance(const Eigen::Matrix4d& pose, const Matrix6d& covariance)
   return a * covariance * a.transpose();
 }
 
+/** The shift of the target frame's origin, and the turn in degrees, of \a difference. */
+std::pair<double, double>
+shiftAndTurn(const Eigen::Matrix4d& difference)
+{
+  return {difference.topRightCorner<3, 1>().norm(),
+          Eigen::AngleAxisd(Eigen::Matrix3d(difference.topLeftCorner<3, 3>())).angle() * 180.0 /
+              M_PI};
+}
+
 } // namespace
+
+bool
+endsTogether(const Eigen::Matrix4d& pose, const Eigen::Matrix4d& other, double units_per_metre)
+{
+  const auto [shift, turn] = shiftAndTurn(other.inverse() * pose);
+  return shift < kAgreementShiftMetres * units_per_metre && turn < kAgreementTurnDeg;
+}
 
 bool
 mayBeConfirmed(const AlignmentResult& result)
@@ -68,11 +86,8 @@ confirmWithTheReverse(const AlignmentResult& back, double units_per_metre, Align
   Verification& v = result.verification;
   if (!back.error.empty())
     return false;
-  const Eigen::Matrix4d difference = result.transformation * back.transformation;
-  v.reverse_shift = difference.topRightCorner<3, 1>().norm();
-  v.reverse_turn_deg =
-      Eigen::AngleAxisd(Eigen::Matrix3d(difference.topLeftCorner<3, 3>())).angle() * 180.0 /
-      M_PI;
+  std::tie(v.reverse_shift, v.reverse_turn_deg) =
+      shiftAndTurn(result.transformation * back.transformation);
   const Verification& w = back.verification;
   // A side that leaves a direction free says nothing along it, so it confirms only a result
   // that holds every direction itself, on enough surface, and names no second optimum.

@@ -23,6 +23,12 @@ constexpr double kAgreementTurnDeg = kSuccessTurnDeg / 4.0;
  * (holdsTheFreeTurn()): the success bound's turn. */
 constexpr double kHeldFreeTurnAgreementDeg = kSuccessTurnDeg;
 
+/** \brief True where the poses \a pose and \a other, of one problem, end within
+ * kAgreementShiftMetres (times \a units_per_metre) and kAgreementTurnDeg of each other: the
+ * turn, and the shift of the target frame's origin, of other^-1 * pose. */
+bool
+endsTogether(const Eigen::Matrix4d& pose, const Eigen::Matrix4d& other, double units_per_metre);
+
 /** \brief True where \a result, refused by the reliability test as degenerate, for weak
  * evidence, a second optimum or too little shared surface, or passed with its search capped,
  * has a confidence of at least kConfirmableConfidence after judgeSteadiness(): worth aligning
