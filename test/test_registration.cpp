@@ -1189,10 +1189,10 @@ TEST(Registration, ASparseResultTheCloudsSwappedConfirmConverges)
 }
 
 // The Livox walk, scan 88 onto 72 (0.9 m and 32 deg apart), from the identity: the result is
-// held back and asked of the clouds swapped, whose search ends 2.8 m from it. Weighed by that
-// side as a runner-up, the result, refined there, scores the higher normalised MI on its
-// finest grid, so the swapped side ends at it and confirms it. Before, that side kept its own
-// optimum, and the result stayed held back.
+// held back and asked of the clouds swapped, whose search meets its tolerances in another
+// optimum, 2.8 m from it. Weighed by that side as a runner-up, the result, refined there,
+// scores the higher normalised MI on its finest grid, so the swapped side ends at it and
+// confirms it. Before, that side kept its own optimum, and the result stayed held back.
 TEST(Registration, TheCloudsSwappedWeighTheResultTheirSearchMissed)
 {
   Cloud::Ptr source, target;

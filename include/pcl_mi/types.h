@@ -264,7 +264,7 @@ struct Verification {
    * only; NaN otherwise: how far (in the clouds' units, at the target frame's origin;
    * degrees) the alignment of the clouds swapped, from the inverse of the guess, ended from
    * the result, inverted. That alignment also weighs the result itself, as a runner-up of
-   * its own search, where its search ends apart from it. */
+   * its own search, where its search met its tolerances and ended apart from it. */
   double reverse_shift = std::numeric_limits<double>::quiet_NaN();
   double reverse_turn_deg = std::numeric_limits<double>::quiet_NaN();
   /** Where that alignment did not confirm the result, why: "it ends more than 0.25 m or 0.5

@@ -348,17 +348,20 @@ struct RegistrationCore::Impl {
   /** In that core: the result it is asked about, inverted (a pose of its own problem). */
   std::optional<Eigen::Matrix4d> asked_about;
 
-  /** In the confirming core: where its own optimum (\a result) ends apart from the result it
-   * is asked about, weighs that result too, refined and judged as a runner-up is, on shared
-   * surface only. Its search may have missed the pose the other side found, as the reverse
-   * search often finds one this side missed; the finest grid's normalised MI, not the
-   * search, then says which of the two this side prefers (docs/method.md, step 6). */
+  /** In the confirming core: where its own search met its tolerances and ended apart from
+   * the result it is asked about (\a result), weighs that result too, refined and judged as
+   * a runner-up is, on shared surface only. The search may have settled in another optimum
+   * than the pose the other side found, as the reverse search often finds one this side
+   * missed; the finest grid's normalised MI, not the search, then says which of the two this
+   * side prefers. A capped search ended where the cap stopped it, which says nothing
+   * (docs/method.md, step 6). */
   void
   weighTheResultAskedAbout(const core::SearchSpace& space,
                            AlignmentResult& result,
                            double& finest_normalized_mi)
   {
-    if (core::endsTogether(result.transformation, *asked_about,
+    if (!result.search_converged ||
+        core::endsTogether(result.transformation, *asked_about,
                            problem.parameters().units_per_metre))
       return;
     core::StageClock clock;
