@@ -926,6 +926,22 @@ loadBundledPair(const std::string& set,
   pcl::copyPointCloud(target_xyzi, *target);
 }
 
+/** Aligns row \a row of the bundled \a set's list with \a reg as configured, from the
+ * identity, and gives the row's reference; \a reg keeps the clouds. */
+void
+alignBundledPair(const std::string& set,
+                 int row,
+                 pcl::MutualInformationRegistration<pcl::PointXYZ>& reg,
+                 Eigen::Matrix4d& reference)
+{
+  Cloud::Ptr source, target;
+  ASSERT_NO_FATAL_FAILURE(loadBundledPair(set, source, target, reference, row));
+  reg.setInputSource(source);
+  reg.setInputTarget(target);
+  Cloud aligned;
+  reg.align(aligned);
+}
+
 } // namespace
 
 // A Livox (70 deg field of view) carried on a walk, 3.4 m and 38 deg between the scans:
@@ -1083,14 +1099,9 @@ TEST(Registration, ANarrowViewsTurnAboutItsAxisOfViewIsProbedAVoxelFar)
 // tenth either way: it holds the turn, and the result converges.
 TEST(Registration, AWeaklyHeldTurnTheMutualInformationHoldsConverges)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_quickshack", source, target, reference, 3));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_quickshack", 3, reg, reference));
   EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
   EXPECT_GE(reg.getConfidence(), 0.95);
   const pcl_mi::Verification& v = reg.getVerification();
@@ -1145,14 +1156,9 @@ TEST(Registration, ASparseResultSpreadOverTheBoundIsHeldBack)
 // agreement tolerance of it, which measures that spread, and it converges.
 TEST(Registration, ASparseResultHeldBackForItsSpreadIsConfirmedByTheCloudsSwapped)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 6));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_hku1", 6, reg, reference));
   const pcl_mi::Verification& v = reg.getVerification();
   ASSERT_LT(v.inliers, 60u) << "the premise: the evidence is sparse";
   bool asked = false;
@@ -1171,14 +1177,9 @@ TEST(Registration, ASparseResultHeldBackForItsSpreadIsConfirmedByTheCloudsSwappe
 // so the result converges; before, that chance held it back for sparse evidence.
 TEST(Registration, ASparseResultTheCloudsSwappedConfirmConverges)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 5));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_hku1", 5, reg, reference));
   const pcl_mi::Verification& v = reg.getVerification();
   ASSERT_LT(v.inliers, 60u) << "the premise: the evidence is sparse";
   EXPECT_TRUE(v.reverse_confirmed) << reg.getLastError();
@@ -1195,14 +1196,9 @@ TEST(Registration, ASparseResultTheCloudsSwappedConfirmConverges)
 // confirms it. Before, that side kept its own optimum, and the result stayed held back.
 TEST(Registration, TheCloudsSwappedWeighTheResultTheirSearchMissed)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 7));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_hku1", 7, reg, reference));
   const pcl_mi::Verification& v = reg.getVerification();
   ASSERT_FALSE(std::isnan(v.reverse_shift)) << "the premise: the clouds swapped were asked";
   EXPECT_TRUE(v.reverse_confirmed) << reg.getLastError();
@@ -1272,14 +1268,9 @@ TEST(Registration, ALivoxPairIsFoundOnTheCoarsestLevelsNormalisedMI)
 // pose.
 TEST(Registration, TheSecondSearchAlsoStartsAlongTheRoad)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("mulran_riverside02_os1", source, target, reference, 1));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("mulran_riverside02_os1", 1, reg, reference));
   EXPECT_TRUE(reg.getLastResult().second_search);
   EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
   EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
@@ -1291,14 +1282,9 @@ TEST(Registration, TheSecondSearchAlsoStartsAlongTheRoad)
 // the shared surfaces beats it whatever its MI, and that one is right.
 TEST(Registration, ARunnerUpOnSharedSurfacesBeatsAPoseThatSharesNone)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_quickshack", source, target, reference));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_quickshack", 0, reg, reference));
   const pcl_mi::AlignmentResult& r = reg.getLastResult();
   EXPECT_TRUE(r.runner_up_kept);
   EXPECT_GE(r.verification.inliers, 30u);
@@ -1599,14 +1585,9 @@ TEST(Registration, ASensorMountedTiltedIsSearchedAlongTheGround)
 // than a voxel apart, and judged again with the turn held it converges, within the bound.
 TEST(Registration, AFreeTurnThatTheRefinementHoldsConverges)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 3));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_hku1", 3, reg, reference));
   const pcl_mi::Verification& v = reg.getVerification();
   EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
   EXPECT_TRUE(v.free_turns_held);
@@ -1622,15 +1603,10 @@ TEST(Registration, AFreeTurnThatTheRefinementHoldsConverges)
 // result passes as a capped one does, for the clouds swapped to confirm.
 TEST(Registration, AFreeTurnThatTheRefinementHoldsIsHeldWhereTheSearchWasCapped)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 3));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
   reg.setMaximumIterations(300);
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_hku1", 3, reg, reference));
   const pcl_mi::Verification& v = reg.getVerification();
   EXPECT_FALSE(reg.getLastResult().search_converged);
   EXPECT_TRUE(v.free_turns_held);
@@ -1675,14 +1651,9 @@ TEST(Registration, TheCloudsSwappedConfirmAResultTheVerdictHeldBack)
 // result was held back.)
 TEST(Registration, ASideThatLeavesADirectionFreeConfirmsAResultThatHoldsEveryDirection)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 4));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_hku1", 4, reg, reference));
   const pcl_mi::Verification& v = reg.getVerification();
   EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
   EXPECT_TRUE(v.reverse_confirmed);
@@ -1699,14 +1670,9 @@ TEST(Registration, ASideThatLeavesADirectionFreeConfirmsAResultThatHoldsEveryDir
 // (Before, a result with too little shared surface was never asked of the other side.)
 TEST(Registration, TheCloudsSwappedConfirmAResultWithTooLittleSharedSurface)
 {
-  Cloud::Ptr source, target;
-  Eigen::Matrix4d reference;
-  ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_quickshack", source, target, reference, 4));
   pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
-  reg.setInputSource(source);
-  reg.setInputTarget(target);
-  Cloud aligned;
-  reg.align(aligned);
+  Eigen::Matrix4d reference;
+  ASSERT_NO_FATAL_FAILURE(alignBundledPair("livox_avia_quickshack", 4, reg, reference));
   const pcl_mi::Verification& v = reg.getVerification();
   EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
   EXPECT_TRUE(v.reverse_confirmed);
