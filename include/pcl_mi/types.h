@@ -211,7 +211,11 @@ struct Verification {
    * constrain little. */
   Eigen::Matrix<double, 6, 1, Eigen::DontAlign> observability =
       Eigen::Matrix<double, 6, 1, Eigen::DontAlign>::Zero();
-  /** The matching unit eigenvectors (columns) in the scaled increments. */
+  /** The matching unit eigenvectors (columns) in the scaled increments. Where the two least
+   * eigenvalues lie within a factor of two of each other, the first two columns are turned
+   * within their plane so that the first carries the least information per motion of the
+   * samples and the second the most: a turn scaled at the RMS radius can look as weak as a
+   * free shift, and the two eigenvectors then mix them. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> observability_directions =
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Identity();
   /** Share of the inliers lost by moving the result either way along each of the two least

@@ -66,6 +66,12 @@ constexpr double kCalibratedLogits[] = {-5.0, -1.43, -0.65, -0.24, 1.43, 1.58, 2
  * directions must lose at least: a floor or a corridor loses only its edges along its free
  * directions, whereas their noisy normals leave those directions some small information. */
 constexpr double kFreeDirectionContrast = 0.05;
+/** Two least eigenvalues of the scaled information within this factor of each other leave
+ * their eigenvectors ill-determined: the normals' noise turns them within their plane. Applied
+ * to every direction pair, the information per motion of the samples also turned
+ * well-separated eigenvectors and cost right Livox results (docs/benchmarks.md, "A free
+ * direction mixed with a turn"). */
+constexpr double kMixedEigenvalues = 2.0;
 /** A component of a free direction at least this large names its axis in the reason. */
 constexpr double kNamedComponent = 0.4;
 
@@ -329,6 +335,43 @@ observabilityOf(const Eigen::SelfAdjointEigenSolver<Matrix6d>& solver, Verificat
   v.observability_directions = solver.eigenvectors();
 }
 
+/** Where the two least observable directions of \a v (local frame, [t, omega * \a radius])
+ * have eigenvalues within kMixedEigenvalues of each other, turns them within their plane so
+ * that the first is the one of least information per motion of the probed samples and the
+ * second the one of most (a generalised eigenproblem in the plane). Scaled at the RMS radius,
+ * a turn that moves the samples less than that radius (a roll about a long corridor's axis)
+ * can look as weak as a shift the surfaces leave free, and the eigenvectors of two such
+ * eigenvalues are any mix of the two: each then turns the samples off the surfaces, and
+ * neither probe finds the free shift (docs/benchmarks.md, "A free direction mixed with a
+ * turn"). Unit length each; they need not be orthogonal. */
+void
+separateLeastObservable(const InlierProbe& probe, double radius, Verification& v)
+{
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  if (!(v.observability[1] < kMixedEigenvalues * v.observability[0]))
+    return;
+  const Vector6d d0 = v.observability_directions.col(0);
+  const Vector6d d1 = v.observability_directions.col(1);
+  const auto motion = [&](const Vector6d& d) {
+    const double shift = probe.rmsShift(d.tail<3>() / radius, d.head<3>());
+    return shift * shift;
+  };
+  Eigen::Matrix2d m;
+  m(0, 0) = motion(d0);
+  m(1, 1) = motion(d1);
+  m(0, 1) = m(1, 0) = 0.5 * (motion(d0 + d1) - m(0, 0) - m(1, 1));
+  if (!(m.determinant() > 1e-12 * m(0, 0) * m(1, 1)))
+    return; // a direction that moves no sample
+  const Eigen::Matrix2d information = v.observability.head<2>().asDiagonal();
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix2d> plane(information, m);
+  if (plane.info() != Eigen::Success)
+    return;
+  for (int k = 0; k < 2; ++k) {
+    const Vector6d u = plane.eigenvectors()(0, k) * d0 + plane.eigenvectors()(1, k) * d1;
+    v.observability_directions.col(k) = u.normalized();
+  }
+}
+
 /** The radius at which verifyPose() scales rotations for \a source. */
 double
 rotationRadius(const SourceSamples& source, double resolution)
@@ -464,6 +507,7 @@ verifyPose(const TargetDistributions& target,
   const Eigen::SelfAdjointEigenSolver<Matrix6d> information = scaledInformation(at, radius);
   observabilityOf(information, v);
   v.covariance = covarianceFrom(at, information, radius, target_centroid, target_axes);
+  separateLeastObservable(probe, radius, v);
   // The two least observable directions ([t, omega * radius]), moved either way so far that
   // the samples move one voxel (root mean square). A turn scaled at the RMS radius moves a
   // narrow view's samples much less than that about its axis of view, which left such turns
