@@ -130,14 +130,16 @@ TEST(Verification, CorridorIsDegenerateAlongItsLength)
 }
 
 /** A scan of a corridor 4 m wide and 3 m high along x, as a sensor at (\a sensor_x, 0, 0)
- * that sees it out to 25 m either way samples it, in the sensor's frame: each scan has
- * samples of its own, so that nothing but the surfaces can align two scans. */
+ * that sees it out to 25 m either way samples it, in the sensor's frame, its floor left out
+ * unless \a with_floor: each scan has samples of its own, so that nothing but the surfaces
+ * can align two scans. */
 Cloud::Ptr
-corridorSeenFrom(float sensor_x, std::mt19937& rng)
+corridorSeenFrom(float sensor_x, std::mt19937& rng, bool with_floor = true)
 {
   Cloud scan;
   const float lo = sensor_x - 25.0f, hi = sensor_x + 25.0f;
-  addBox(scan, {lo, -2.0f, 0.0f}, {hi, 2.0f, 0.0f}, 16667, rng);  // floor
+  if (with_floor)
+    addBox(scan, {lo, -2.0f, 0.0f}, {hi, 2.0f, 0.0f}, 16667, rng);
   addBox(scan, {lo, -2.0f, 0.0f}, {hi, -2.0f, 3.0f}, 16667, rng); // walls
   addBox(scan, {lo, 2.0f, 0.0f}, {hi, 2.0f, 3.0f}, 16667, rng);
   return moved(scan, -sensor_x, 0.0, 0.0);
@@ -156,6 +158,24 @@ TEST(Verification, ACorridorSampledAnewIsDegenerateAlongItsLength)
     std::mt19937 rng(seed);
     const Cloud::Ptr target = corridorSeenFrom(0.0f, rng);
     const Cloud::Ptr source = corridorSeenFrom(1.5f, rng);
+    Registration reg;
+    alignDefaults(reg, source, target);
+    expectNotTrusted(reg, "degenerate along x");
+  }
+}
+
+// The same corridor's walls without its floor, as scans whose ground was removed leave
+// them: the shift along the walls, the shift up and the pitch carry nearly no information,
+// the last two held only where the walls end, and the eigenvectors mix all three, so that
+// each probe along one met an edge and such a result said converged metres off. Seeds 2,
+// 18 and 24 did. The shift along the walls is free whatever the mix.
+TEST(Verification, WallsWithoutAFloorAreDegenerateAlongThem)
+{
+  for (const unsigned seed : {1u, 2u, 18u, 24u}) {
+    SCOPED_TRACE(seed);
+    std::mt19937 rng(seed);
+    const Cloud::Ptr target = corridorSeenFrom(0.0f, rng, false);
+    const Cloud::Ptr source = corridorSeenFrom(1.5f, rng, false);
     Registration reg;
     alignDefaults(reg, source, target);
     expectNotTrusted(reg, "degenerate along x");

@@ -215,11 +215,14 @@ struct Verification {
    * eigenvalues lie within a factor of two of each other, the first two columns are turned
    * within their plane so that the first carries the least information per motion of the
    * samples and the second the most: a turn scaled at the RMS radius can look as weak as a
-   * free shift, and the two eigenvectors then mix them. */
+   * free shift, and the two eigenvectors then mix them. Where the three least lie within a
+   * factor of two and neither of the first two is free, the second is the shift along an
+   * axis of the target's frame that loses the fewest inliers moved a voxel, if that is free:
+   * three such eigenvectors are any mix of their directions. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> observability_directions =
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Identity();
-  /** Share of the inliers lost by moving the result either way along each of the two least
-   * observable directions, so far that the samples move one voxel (root mean square); below
+  /** Share of the inliers lost by moving the result either way along each of the first two
+   * observability_directions, so far that the samples move one voxel (root mean square); below
    * 0.05 the direction counts as free (degenerate) unless the MI holds it
    * (free_turn_mi_loss) or, a turn, the refinement (free_turns_held). Where the result leaves
    * the sensors where they were (within a voxel, the vertical axis tilted by less than a

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iterator>
+#include <limits>
 #include <sstream>
 
 namespace pcl_mi {
@@ -66,11 +67,12 @@ constexpr double kCalibratedLogits[] = {-5.0, -1.43, -0.65, -0.24, 1.43, 1.58, 2
  * directions must lose at least: a floor or a corridor loses only its edges along its free
  * directions, whereas their noisy normals leave those directions some small information. */
 constexpr double kFreeDirectionContrast = 0.05;
-/** Two least eigenvalues of the scaled information within this factor of each other leave
- * their eigenvectors ill-determined: the normals' noise turns them within their plane. Applied
- * to every direction pair, the information per motion of the samples also turned
- * well-separated eigenvectors and cost right Livox results (docs/benchmarks.md, "A free
- * direction mixed with a turn"). */
+/** Eigenvalues of the scaled information within this factor of each other leave their
+ * eigenvectors ill-determined: the normals' noise turns them within their span. Applied to
+ * every pair, the information per motion of the samples also turned well-separated
+ * eigenvectors, and the axis shifts' probes held back right results where only two
+ * directions were weak; both cost right Livox results (docs/benchmarks.md, "A free direction
+ * mixed with a turn", "A free shift among three weak directions"). */
 constexpr double kMixedEigenvalues = 2.0;
 /** A component of a free direction at least this large names its axis in the reason. */
 constexpr double kNamedComponent = 0.4;
@@ -537,6 +539,24 @@ verifyPose(const TargetDistributions& target,
           std::abs(turn.dot(up)) <= kSwingShare * turn.norm())
         v.free_turn_mi_loss[k] =
             1.0 - meanEitherWay(rotation, translation, omega[k], delta[k], finest_mi) / mi;
+    }
+  }
+  // Where the three least eigenvalues lie within kMixedEigenvalues of one another and
+  // neither direction probed counts free, a shift along an axis of the target's frame that
+  // its contrast probe found free: two walls without a floor leave the shift along them, the
+  // shift up and the pitch nearly without information, the last two held only where the
+  // walls end; the eigenvectors mix all three, and each probe meets an edge
+  // (docs/benchmarks.md, "A free shift among three weak directions"). That probe moves the
+  // samples a voxel, as these do; where the sensors stand at one place it counts every
+  // inlier, which the probes above do not.
+  if (placement == SensorPlacement::kApart && !isFree(v, 0) && !isFree(v, 1) &&
+      v.observability[2] < kMixedEigenvalues * v.observability[0]) {
+    const int axis = static_cast<int>(std::min_element(contrast, contrast + 3) - contrast);
+    if (contrast[axis] < kFreeDirectionContrast) {
+      v.observability_directions.col(1).setZero();
+      v.observability_directions(axis, 1) = 1.0;
+      v.free_direction_contrast[1] = contrast[axis];
+      v.free_turn_mi_loss[1] = std::numeric_limits<double>::quiet_NaN();
     }
   }
   // Reported in the input frame: [delta, omega * radius] turn alike.
