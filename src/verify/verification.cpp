@@ -185,7 +185,20 @@ public:
     stride_(source.samples.size() / kProbeSamples + 1),
     base_(static_cast<double>(
         gatherPoseEvidence(target, source, rotation, translation, stride_).inliers))
-  {}
+  {
+    // The probed samples' first and second moments at the result: every motion measure
+    // below is a quadratic form in them.
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < source.samples.size(); i += stride_, ++count) {
+      const Eigen::Vector3d q = rotation * source.samples[i].position.cast<double>() + translation;
+      mean_ += q;
+      second_moment_ += q * q.transpose();
+    }
+    if (count) {
+      mean_ /= static_cast<double>(count);
+      second_moment_ /= static_cast<double>(count);
+    }
+  }
 
   /** \brief Mean share of the result's inliers lost by the left increments +-[omega,
    * delta] (rotations about the target local origin); 0 for a result without inliers. */
@@ -213,19 +226,27 @@ public:
     });
   }
 
+  /** \brief Mean over the probed samples q of the product of their moves, to first order,
+   * by the left increments [omega_a, delta_a] and [omega_b, delta_b]:
+   * (omega_a x q + delta_a) . (omega_b x q + delta_b). */
+  double
+  meanMoveProduct(const Eigen::Vector3d& omega_a,
+                  const Eigen::Vector3d& delta_a,
+                  const Eigen::Vector3d& omega_b,
+                  const Eigen::Vector3d& delta_b) const
+  {
+    // (a x q) . (b x q) = (a . b)(q . q) - (a . q)(b . q)
+    return delta_a.dot(delta_b) + delta_a.dot(omega_b.cross(mean_)) +
+           delta_b.dot(omega_a.cross(mean_)) + omega_a.dot(omega_b) * second_moment_.trace() -
+           omega_a.dot(second_moment_ * omega_b);
+  }
+
   /** \brief Root mean square distance by which the left increment [omega, delta] moves the
    * probed samples, to first order. */
   double
   rmsShift(const Eigen::Vector3d& omega, const Eigen::Vector3d& delta) const
   {
-    double sum = 0.0;
-    std::size_t count = 0;
-    for (std::size_t i = 0; i < source_.samples.size(); i += stride_, ++count) {
-      const Eigen::Vector3d q =
-          rotation_ * source_.samples[i].position.cast<double>() + translation_;
-      sum += (omega.cross(q) + delta).squaredNorm();
-    }
-    return count ? std::sqrt(sum / static_cast<double>(count)) : 0.0;
+    return std::sqrt(std::max(0.0, meanMoveProduct(omega, delta, omega, delta)));
   }
 
   /** \brief The same for turns by +-\a angle about the axis \a axis through the source's
@@ -282,6 +303,8 @@ private:
   const Eigen::Vector3d translation_;
   const std::size_t stride_;
   const double base_;
+  Eigen::Vector3d mean_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second_moment_ = Eigen::Matrix3d::Zero();
 };
 
 /** The share of the inliers lost one voxel (\a step) along \a axis (0-2), or turned by
@@ -354,14 +377,14 @@ separateLeastObservable(const InlierProbe& probe, double radius, Verification& v
     return;
   const Vector6d d0 = v.observability_directions.col(0);
   const Vector6d d1 = v.observability_directions.col(1);
-  const auto motion = [&](const Vector6d& d) {
-    const double shift = probe.rmsShift(d.tail<3>() / radius, d.head<3>());
-    return shift * shift;
+  const auto motion = [&](const Vector6d& a, const Vector6d& b) {
+    return probe.meanMoveProduct(a.tail<3>() / radius, a.head<3>(), b.tail<3>() / radius,
+                                 b.head<3>());
   };
   Eigen::Matrix2d m;
-  m(0, 0) = motion(d0);
-  m(1, 1) = motion(d1);
-  m(0, 1) = m(1, 0) = 0.5 * (motion(d0 + d1) - m(0, 0) - m(1, 1));
+  m(0, 0) = motion(d0, d0);
+  m(1, 1) = motion(d1, d1);
+  m(0, 1) = m(1, 0) = motion(d0, d1);
   if (!(m.determinant() > 1e-12 * m(0, 0) * m(1, 1)))
     return; // a direction that moves no sample
   const Eigen::Matrix2d information = v.observability.head<2>().asDiagonal();
