@@ -188,15 +188,14 @@ public:
   {
     // The probed samples' first and second moments at the result: every motion measure
     // below is a quadratic form in them.
-    std::size_t count = 0;
-    for (std::size_t i = 0; i < source.samples.size(); i += stride_, ++count) {
+    for (std::size_t i = 0; i < source.samples.size(); i += stride_, ++probed_) {
       const Eigen::Vector3d q = rotation * source.samples[i].position.cast<double>() + translation;
       mean_ += q;
       second_moment_ += q * q.transpose();
     }
-    if (count) {
-      mean_ /= static_cast<double>(count);
-      second_moment_ /= static_cast<double>(count);
+    if (probed_) {
+      mean_ /= static_cast<double>(probed_);
+      second_moment_ /= static_cast<double>(probed_);
     }
   }
 
@@ -228,13 +227,15 @@ public:
 
   /** \brief Mean over the probed samples q of the product of their moves, to first order,
    * by the left increments [omega_a, delta_a] and [omega_b, delta_b]:
-   * (omega_a x q + delta_a) . (omega_b x q + delta_b). */
+   * (omega_a x q + delta_a) . (omega_b x q + delta_b); 0 without samples. */
   double
   meanMoveProduct(const Eigen::Vector3d& omega_a,
                   const Eigen::Vector3d& delta_a,
                   const Eigen::Vector3d& omega_b,
                   const Eigen::Vector3d& delta_b) const
   {
+    if (probed_ == 0)
+      return 0.0;
     // (a x q) . (b x q) = (a . b)(q . q) - (a . q)(b . q)
     return delta_a.dot(delta_b) + delta_a.dot(omega_b.cross(mean_)) +
            delta_b.dot(omega_a.cross(mean_)) + omega_a.dot(omega_b) * second_moment_.trace() -
@@ -303,6 +304,7 @@ private:
   const Eigen::Vector3d translation_;
   const std::size_t stride_;
   const double base_;
+  std::size_t probed_ = 0; // samples the moments below are over
   Eigen::Vector3d mean_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d second_moment_ = Eigen::Matrix3d::Zero();
 };
