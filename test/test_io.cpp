@@ -14,6 +14,8 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -159,6 +161,70 @@ TEST(CloudIo, ConvertsCoordinatesOfAnyNumericType)
   EXPECT_FLOAT_EQ(cloud[1].x, 3.125f);
   EXPECT_FLOAT_EQ(cloud[1].z, -9.0f);
   std::remove(path.c_str());
+}
+
+// Drivers write their own point layouts: the Ouster driver pads with fields named "_", the
+// Livox driver mixes 1-byte fields with a double timestamp, and a layout need not start with
+// x. Each is read as PCL reads it.
+TEST(CloudIo, ReadsDriverPointLayouts)
+{
+  struct Layout {
+    const char* name;
+    const char* fields;
+    const char* sizes;
+    const char* types;
+    std::vector<int> size_of; // bytes per field
+    int x, intensity;         // field index of x (y and z follow) and of the intensity
+  };
+  const std::vector<Layout> layouts = {
+      {"ouster", "x y z _ intensity t reflectivity ring ambient _ range",
+       "4 4 4 4 4 4 2 2 2 2 4", "F F F F F U U U U U U", {4, 4, 4, 4, 4, 4, 2, 2, 2, 2, 4}, 0, 4},
+      {"livox", "x y z intensity tag line timestamp", "4 4 4 4 1 1 8", "F F F F U U F",
+       {4, 4, 4, 4, 1, 1, 8}, 0, 3},
+      {"intensity_first", "intensity ring x y z time", "4 2 4 4 4 4", "F U F F F F",
+       {4, 2, 4, 4, 4, 4}, 2, 0},
+  };
+  for (const Layout& layout : layouts) {
+    SCOPED_TRACE(layout.name);
+    const int points = 5;
+    std::string body;
+    for (int i = 0; i < points; ++i)
+      for (std::size_t f = 0; f < layout.size_of.size(); ++f) {
+        const int k = static_cast<int>(f);
+        std::string bytes(static_cast<std::size_t>(layout.size_of[f]), '\x5a'); // padding, ids
+        if (k >= layout.x && k < layout.x + 3) {
+          const float v = 1.5f * static_cast<float>(i) - 2.25f * static_cast<float>(k - layout.x);
+          bytes.assign(reinterpret_cast<const char*>(&v), sizeof v);
+        }
+        else if (k == layout.intensity) {
+          const float v = 10.0f + static_cast<float>(i);
+          bytes.assign(reinterpret_cast<const char*>(&v), sizeof v);
+        }
+        body += bytes;
+      }
+    std::string counts;
+    for (std::size_t f = 0; f < layout.size_of.size(); ++f)
+      counts += " 1";
+    const std::string path = writeTemp(
+        std::string("pcl_mi_") + layout.name + ".pcd",
+        std::string("# .PCD v0.7\nVERSION 0.7\nFIELDS ") + layout.fields + "\nSIZE " +
+            layout.sizes + "\nTYPE " + layout.types + "\nCOUNT" + counts +
+            "\nWIDTH 5\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 5\nDATA binary\n" + body);
+    pcl::PointCloud<pcl::PointXYZI> by_pcl, by_pcl_mi;
+    ASSERT_EQ(pcl::io::loadPCDFile(path, by_pcl), 0);
+    ASSERT_EQ(pcl_mi::io::loadCloud(path, by_pcl_mi), "");
+    ASSERT_EQ(by_pcl_mi.size(), static_cast<std::size_t>(points));
+    for (int i = 0; i < points; ++i) {
+      const pcl::PointXYZI& p = by_pcl_mi[i];
+      EXPECT_EQ(p.x, 1.5f * static_cast<float>(i)) << i;
+      EXPECT_EQ(p.y, 1.5f * static_cast<float>(i) - 2.25f) << i;
+      EXPECT_EQ(p.z, 1.5f * static_cast<float>(i) - 4.5f) << i;
+      EXPECT_EQ(p.intensity, 10.0f + static_cast<float>(i)) << i;
+      EXPECT_EQ(p.getVector3fMap(), by_pcl[i].getVector3fMap()) << i;
+      EXPECT_EQ(p.intensity, by_pcl[i].intensity) << i;
+    }
+    std::remove(path.c_str());
+  }
 }
 
 TEST(CloudIo, SavedPcdReadsBackInPclAndPclMi)
