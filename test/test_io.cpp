@@ -171,18 +171,15 @@ TEST(CloudIo, ReadsDriverPointLayouts)
   struct Layout {
     const char* name;
     const char* fields;
-    const char* sizes;
     const char* types;
     std::vector<int> size_of; // bytes per field
     int x, intensity;         // field index of x (y and z follow) and of the intensity
   };
   const std::vector<Layout> layouts = {
-      {"ouster", "x y z _ intensity t reflectivity ring ambient _ range",
-       "4 4 4 4 4 4 2 2 2 2 4", "F F F F F U U U U U U", {4, 4, 4, 4, 4, 4, 2, 2, 2, 2, 4}, 0, 4},
-      {"livox", "x y z intensity tag line timestamp", "4 4 4 4 1 1 8", "F F F F U U F",
-       {4, 4, 4, 4, 1, 1, 8}, 0, 3},
-      {"intensity_first", "intensity ring x y z time", "4 2 4 4 4 4", "F U F F F F",
-       {4, 2, 4, 4, 4, 4}, 2, 0},
+      {"ouster", "x y z _ intensity t reflectivity ring ambient _ range", "F F F F F U U U U U U",
+       {4, 4, 4, 4, 4, 4, 2, 2, 2, 2, 4}, 0, 4},
+      {"livox", "x y z intensity tag line timestamp", "F F F F U U F", {4, 4, 4, 4, 1, 1, 8}, 0, 3},
+      {"intensity_first", "intensity ring x y z time", "F U F F F F", {4, 2, 4, 4, 4, 4}, 2, 0},
   };
   for (const Layout& layout : layouts) {
     SCOPED_TRACE(layout.name);
@@ -202,14 +199,17 @@ TEST(CloudIo, ReadsDriverPointLayouts)
         }
         body += bytes;
       }
-    std::string counts;
-    for (std::size_t f = 0; f < layout.size_of.size(); ++f)
+    std::string sizes, counts;
+    for (const int size : layout.size_of) {
+      sizes += " " + std::to_string(size);
       counts += " 1";
+    }
+    const std::string n = std::to_string(points);
     const std::string path = writeTemp(
         std::string("pcl_mi_") + layout.name + ".pcd",
-        std::string("# .PCD v0.7\nVERSION 0.7\nFIELDS ") + layout.fields + "\nSIZE " +
-            layout.sizes + "\nTYPE " + layout.types + "\nCOUNT" + counts +
-            "\nWIDTH 5\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 5\nDATA binary\n" + body);
+        std::string("# .PCD v0.7\nVERSION 0.7\nFIELDS ") + layout.fields + "\nSIZE" + sizes +
+            "\nTYPE " + layout.types + "\nCOUNT" + counts + "\nWIDTH " + n +
+            "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA binary\n" + body);
     pcl::PointCloud<pcl::PointXYZI> by_pcl, by_pcl_mi;
     ASSERT_EQ(pcl::io::loadPCDFile(path, by_pcl), 0);
     ASSERT_EQ(pcl_mi::io::loadCloud(path, by_pcl_mi), "");
