@@ -309,7 +309,38 @@ TEST(Verification, TargetAxesTurnTheReportedCovarianceAndDirections)
   turn.topLeftCorner<3, 3>() = turn.bottomRightCorner<3, 3>() = axes;
   EXPECT_TRUE(turned.covariance.isApprox(turn * level.covariance * turn.transpose(), 1e-9));
   EXPECT_TRUE(turned.observability_directions.isApprox(turn * level.observability_directions, 1e-9));
+  EXPECT_TRUE(turned.information.isApprox(turn * level.information * turn.transpose(), 1e-9));
   EXPECT_EQ(turned.confidence, level.confidence);
+}
+
+// The information is the inverse of the covariance but for the refinement's last step, whose
+// outer product the covariance adds: their difference is one direction's, in any target frame.
+// Its directions are reported about the target's centroid, turns at the stated radius.
+TEST(Verification, TheInformationInvertsTheCovarianceButForTheLastStep)
+{
+  const PointList points = bundledScan();
+  const TargetDistributions target(points, 0.7, 4, 0.05);
+  const SourceSamples source = makeSourceSamples(points, 0.5);
+  const Eigen::Matrix3d axes =
+      (Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(-0.3, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  const Eigen::Vector3d centroid(12.0, -7.0, 1.5);
+  const Verification v = verifyPose(target, source, Eigen::Matrix3d::Identity(),
+                                    Eigen::Vector3d(0.2, -0.1, 0.05), 1.0, JointHistogram(),
+                                    centroid, axes, SensorPlacement::kApart);
+  ASSERT_GT(v.covariance.norm(), 0.0);
+  const Eigen::Matrix<double, 6, 6> difference =
+      v.covariance - Eigen::Matrix<double, 6, 6>(v.information).inverse();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> solver(difference);
+  const double largest = std::abs(solver.eigenvalues()[5]);
+  EXPECT_GT(solver.eigenvalues()[0], -1e-9 * v.covariance.norm());
+  EXPECT_LT(solver.eigenvalues()[4], 1e-9 * v.covariance.norm() + 1e-6 * largest);
+  EXPECT_TRUE(v.observability_centre.isApprox(centroid));
+  double sum = 0.0;
+  for (const SourceSample& sample : source.samples)
+    sum += sample.position.squaredNorm();
+  EXPECT_NEAR(v.observability_radius, std::max(std::sqrt(sum / source.samples.size()), 1.0),
+              1e-9);
 }
 
 // The calibration of the confidence only moves logits below the verdict's threshold, never

@@ -221,6 +221,12 @@ struct Verification {
    * three such eigenvectors are any mix of their directions. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> observability_directions =
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Identity();
+  /** The point (the target's input frame) about which those directions turn, and the
+   * radius at which their turns are scaled: a column [t, omega * radius] moves a target point
+   * p by t + omega x (p - observability_centre). */
+  Eigen::Matrix<double, 3, 1, Eigen::DontAlign> observability_centre =
+      Eigen::Matrix<double, 3, 1, Eigen::DontAlign>::Zero();
+  double observability_radius = 1.0;
   /** Share of the inliers lost by moving the result either way along each of the first two
    * observability_directions, so far that the samples move one voxel (root mean square); below
    * 0.05 the direction counts as free (degenerate) unless the MI holds it
@@ -296,6 +302,14 @@ struct Verification {
    * wider it is where the result depends on where the cells cut the surfaces, and
    * getCovariance() and Python's covariance include that. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> covariance =
+      Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Zero();
+  /** Point-to-plane information (1/m^2, 1/rad^2) of the pose increment, in the covariance's
+   * frame and order, over the inliers' residual variance: where every direction is held, the
+   * inverse of the covariance before the refinement's last step is added; finite (small) along
+   * a free direction too. Zero with 6 inliers or fewer. A result that leaves a direction free,
+   * confirmed by a swapped side that leaves another free (reverse_confirmed), takes as its
+   * covariance the inverse of the two sides' mean information. */
+  Eigen::Matrix<double, 6, 6, Eigen::DontAlign> information =
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Zero();
 };
 

@@ -119,9 +119,8 @@ rmsRadius(const SourceSamples& source)
   return source.samples.empty() ? 0.0 : std::sqrt(sum / source.samples.size());
 }
 
-/** True where the \a k-th least observable direction of \a v is free: its contrast is low and
- * the MI does not hold it (false for a NaN loss), nor, for a turn, the refinement
- * (Verification::free_turns_held). */
+} // namespace
+
 bool
 isFree(const Verification& v, int k)
 {
@@ -130,6 +129,8 @@ isFree(const Verification& v, int k)
   return v.free_direction_contrast[k] < kFreeDirectionContrast &&
          !(v.free_turn_mi_loss[k] >= kHeldTurnMiLoss);
 }
+
+namespace {
 
 /** The mean of \a value_at(r, t) over the two poses that the left increments +-[omega,
  * delta] move \a rotation, \a translation to. */
@@ -442,6 +443,27 @@ covarianceFrom(const PoseEvidence& at,
   return to_origin * local * to_origin.transpose();
 }
 
+/** The point-to-plane information of \a at over its residuals' variance, as covarianceFrom()
+ * gives the covariance: a left increment [delta, omega] about the input frame's origin.
+ * Zero with 6 inliers or fewer. */
+Matrix6d
+informationFrom(const PoseEvidence& at,
+                const Eigen::Vector3d& target_centroid,
+                const Eigen::Matrix3d& target_axes)
+{
+  if (at.inliers <= 6 || !(at.plane_residuals > 0.0))
+    return Matrix6d::Zero();
+  const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
+  const Matrix6d order = covarianceOrder();
+  Matrix6d to_local = Matrix6d::Zero(); // [delta, omega] turn alike
+  to_local.block<3, 3>(0, 0) = target_axes.transpose();
+  to_local.block<3, 3>(3, 3) = target_axes.transpose();
+  // An increment about the input frame's origin, as one about the target local origin.
+  const Matrix6d from_origin = to_local * incrementMovedBy(target_centroid);
+  return from_origin.transpose() * (order * at.plane_information * order.transpose()) *
+         from_origin / variance;
+}
+
 /** The confidence the evidence in \a v gives. */
 double
 confidenceOf(const Verification& v)
@@ -503,11 +525,13 @@ verifyPose(const TargetDistributions& target,
 {
   Verification v;
   v.free_turns_held = free_turns_held;
+  v.observability_centre = target_centroid;
   v.sensors_in_place = placement == SensorPlacement::kSamePlaceAndAxis;
   // The evidence at the result and the contrast probes are independent tasks. Every count
   // and sum is its own task's, so the figures do not depend on the threads.
   PoseEvidence at;
   const double radius = rotationRadius(source, resolution);
+  v.observability_radius = radius;
   const InlierProbe probe(target, source, rotation, translation);
   double contrast[6] = {0, 0, 0, 0, 0, 0};
   // The full gather is the longest task: it goes first, and the six axes' probes fill the
@@ -534,6 +558,7 @@ verifyPose(const TargetDistributions& target,
   const Eigen::SelfAdjointEigenSolver<Matrix6d> information = scaledInformation(at, radius);
   observabilityOf(information, v);
   v.covariance = covarianceFrom(at, information, radius, target_centroid, target_axes);
+  v.information = informationFrom(at, target_centroid, target_axes);
   separateLeastObservable(probe, radius, v);
   // The two least observable directions ([t, omega * radius]), moved either way so far that
   // the samples move one voxel (root mean square). A turn scaled at the RMS radius moves a

@@ -67,6 +67,12 @@ sharesSurface(const Verification& verification)
 double
 calibratedLogit(double z);
 
+/** \brief True where the \a k-th (0 or 1) least observable direction of \a v is free: its
+ * contrast is low and the MI does not hold it (false for a NaN loss), nor, for a turn, the
+ * refinement (Verification::free_turns_held). */
+bool
+isFree(const Verification& v, int k);
+
 /** \brief True where \a v leaves a direction free and every free direction is mostly a turn
  * (a unit move [t, omega * radius] at least 0.7 a turn). */
 bool
