@@ -1,8 +1,9 @@
 /*
  * The alignment of the clouds swapped confirms a refused result only where it agrees, shares
  * surface with a confidence of its own, and holds every direction where the result leaves one
- * free, names a second optimum or shares too little surface; a confirmed result without a
- * covariance of its own takes the swapped one's, carried over to its pose. Where the result
+ * free (or, free itself, the directions the result leaves), names a second optimum or shares
+ * too little surface; a confirmed result without a covariance of its own takes the swapped
+ * one's, carried over to its pose, or the inverse of their mean information. Where the result
  * leaves only a turn free and the swapped side passes itself, the turn agrees within the bound.
  */
 #include "engine/reverse_confirmation.h"
@@ -16,6 +17,7 @@
 
 using pcl_mi::AlignmentResult;
 using pcl_mi::Refusal;
+using pcl_mi::Verification;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 namespace {
@@ -217,6 +219,91 @@ TEST(ReverseConfirmation, ADegenerateResultTakesTheSwappedCovarianceCarriedOver)
         << r.verification.covariance << "\n\n"
         << expected;
   }
+}
+
+// A degenerate result and a swapped side that leave different directions free each hold what
+// the other leaves: where they agree, every direction is held, and the result converges with
+// the inverse of the two sides' mean information. A side free within 45 deg of the result's
+// free direction does not hold it. Directions are [t, omega * radius] about each side's centre.
+TEST(ReverseConfirmation, ASideFreeAlongAnotherDirectionConfirmsADegenerateResult)
+{
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  const Eigen::Matrix4d at = pose(3.0, -1.0, 0.2, 0.05, -0.02, 0.6);
+  const Eigen::Matrix4d back = at.inverse();
+  AlignmentResult refused = heldBack(at);
+  Verification& v = refused.verification;
+  v.refusal = Refusal::Degenerate;
+  v.covariance.setZero();
+  v.observability_centre << 40.0, -25.0, 3.0; // far from the origin, as a local frame is
+  v.observability_radius = 8.0;
+  v.observability_directions.col(0) << 0.0, 0.0, 0.0, 1.0, 0.0, 0.0; // a roll about the centre
+  v.free_direction_contrast[0] = 0.01;
+  v.free_direction_contrast[1] = 0.3;
+  v.information = Vector6d(400.0, 300.0, 200.0, 1e-3, 500.0, 600.0).asDiagonal();
+  ASSERT_TRUE(pcl_mi::core::isFree(v, 0));
+  ASSERT_FALSE(pcl_mi::core::isFree(v, 1));
+
+  // Where that roll moves the swapped pose, found by moving the result a little.
+  const double e = 1e-6;
+  Eigen::Matrix4d d = Eigen::Matrix4d::Identity();
+  d.topLeftCorner<3, 3>() = Eigen::AngleAxisd(e, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  d.topRightCorner<3, 1>() = Eigen::Vector3d(v.observability_centre) -
+                             d.topLeftCorner<3, 3>() * Eigen::Vector3d(v.observability_centre);
+  const Vector6d moved = increment(back, (d * at).inverse()) / e; // about back's origin
+  AlignmentResult side = swapped(back);
+  side.converged = false;
+  Verification& w = side.verification;
+  w.refusal = Refusal::Degenerate;
+  w.covariance.setZero();
+  w.observability_centre << -30.0, 35.0, 2.0;
+  w.observability_radius = 6.0;
+  w.free_direction_contrast[0] = 0.02;
+  w.free_direction_contrast[1] = 0.4;
+  w.information = Vector6d(300.0, 1e-3, 250.0, 350.0, 450.0, 550.0).asDiagonal();
+  Vector6d same;
+  same << moved.head<3>() + moved.tail<3>().cross(Eigen::Vector3d(w.observability_centre)),
+      moved.tail<3>() * w.observability_radius;
+  same.normalize();
+  Vector6d across = Vector6d::Unit(1) - same * same(1); // a shift, made orthogonal to it
+  across.normalize();
+
+  for (const double degrees : {0.0, 30.0, 40.0, 50.0, 60.0, 90.0}) {
+    SCOPED_TRACE(degrees);
+    const double angle = degrees * M_PI / 180.0;
+    w.observability_directions.col(0) = std::cos(angle) * same + std::sin(angle) * across;
+    const bool held = degrees > 45.0;
+    EXPECT_EQ(pcl_mi::core::holdsTheFreeDirections(v, w, back), held);
+    AlignmentResult r = refused;
+    EXPECT_EQ(pcl_mi::core::confirmWithTheReverse(side, 1.0, r), held);
+    EXPECT_EQ(r.converged, held);
+    if (!held) {
+      EXPECT_EQ(r.verification.reverse_reason,
+                "it leaves a direction free itself, and this result leaves one free within 45 "
+                "deg of it");
+      continue;
+    }
+    // The covariance: the inverse of the mean information, the swapped side's carried over
+    // by the map that small moves of the result give.
+    Matrix6d map;
+    for (int k = 0; k < 6; ++k) {
+      Eigen::Matrix4d dk = Eigen::Matrix4d::Identity();
+      if (k < 3)
+        dk(k, 3) = e;
+      else
+        dk.topLeftCorner<3, 3>() =
+            Eigen::AngleAxisd(e, Eigen::Vector3d::Unit(k - 3)).toRotationMatrix();
+      map.col(k) = increment(back, (dk * at).inverse()) / e;
+    }
+    const Matrix6d expected =
+        (0.5 * (Matrix6d(v.information) + map.transpose() * w.information * map)).inverse();
+    EXPECT_TRUE(r.verification.covariance.isApprox(expected, 1e-4))
+        << r.verification.covariance << "\n\n"
+        << expected;
+  }
+  // The result's free direction must be free: one without any is not held by this test.
+  AlignmentResult r = refused;
+  r.verification.free_direction_contrast[0] = 0.3;
+  EXPECT_FALSE(pcl_mi::core::holdsTheFreeDirections(r.verification, w, back));
 }
 
 // A result that leaves only a turn free ends anywhere along it; a swapped side that passes

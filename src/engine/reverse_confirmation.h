@@ -43,6 +43,19 @@ mayBeConfirmed(const AlignmentResult& result);
 bool
 holdsTheFreeTurn(const Verification& v, const Verification& w);
 
+/** Least share (of its squared length) of a direction the result leaves free that must lie
+ * outside the directions the swapped alignment leaves free, for that alignment to hold it:
+ * the two free directions at least 45 degrees apart. */
+constexpr double kHeldAcrossShare = 0.5;
+
+/** \brief True where \a w, the verdict of the swapped alignment that ended at \a back, holds
+ * every direction that \a v, the result's verdict, leaves free: each, carried over to \a back
+ * and in \a w's observability units, lies at least kHeldAcrossShare outside the directions
+ * \a w leaves free. Two sides that leave different directions free each hold what the other
+ * leaves, and where they agree, every direction is held. */
+bool
+holdsTheFreeDirections(const Verification& v, const Verification& w, const Eigen::Matrix4d& back);
+
 /** \brief Weighs \a back, the alignment of the clouds swapped from the inverse of the guess,
  * against \a result: sets Verification::reverse_shift and reverse_turn_deg from the
  * difference of \a result and the inverse of \a back's pose (the turn, and the shift of the
@@ -51,12 +64,14 @@ holdsTheFreeTurn(const Verification& v, const Verification& w);
  *   kConfirmingConfidence, and leaves no direction free, or \a result holds every direction
  *   itself, on enough surface, and names no second optimum (weak evidence, or passed with
  *   its search capped): a free side says nothing along its free direction, the result's own
- *   evidence does,
+ *   evidence does; or \a result is degenerate and \a back holds every direction it leaves
+ *   free (holdsTheFreeDirections()),
  * - and the two end within kAgreementShiftMetres (times \a units_per_metre) and
  *   kAgreementTurnDeg of each other (kHeldFreeTurnAgreementDeg where \a back holds the turn
  *   \a result leaves free, holdsTheFreeTurn()).
  * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
- * direction), \a back's covariance carried over to its pose; one it does not confirm takes
+ * direction), \a back's covariance carried over to its pose, or where \a back has none either,
+ * the inverse of the two sides' mean information (Verification::information); one it does not confirm takes
  * kReverseUnconfirmedConfidence (nothing changes where \a back failed). Whether either
  * search met its tolerance does not matter: two searches that end at one pose from opposite
  * sides found one optimum, however wide their simplices still were at the cap. Returns
