@@ -1663,6 +1663,38 @@ TEST(Registration, ASideThatLeavesADirectionFreeConfirmsAResultThatHoldsEveryDir
   EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
 }
 
+// The ninth bundled Livox pair (4.1 m and 21 deg apart on a walk), both ways: each way leaves
+// a direction free (one a roll, the other a shift across), and the alignment of the clouds
+// swapped, free along the other one, ends within 0.02 m and 0.1 deg. Each side holds what the
+// other leaves free, so together they hold every direction: the result converges, with the
+// inverse of the two sides' mean information as its covariance. (Before, a degenerate result
+// needed a swapped side that holds every direction, and both ways were held back.)
+TEST(Registration, TwoSidesFreeAlongDifferentDirectionsConfirmEachOther)
+{
+  for (const bool swapped : {false, true}) {
+    SCOPED_TRACE(swapped);
+    Cloud::Ptr source, target;
+    Eigen::Matrix4d reference;
+    ASSERT_NO_FATAL_FAILURE(loadBundledPair("livox_avia_hku1", source, target, reference, 8));
+    if (swapped) {
+      std::swap(source, target);
+      reference = reference.inverse().eval();
+    }
+    pcl::MutualInformationRegistration<pcl::PointXYZ> reg;
+    reg.setInputSource(source);
+    reg.setInputTarget(target);
+    Cloud aligned;
+    reg.align(aligned);
+    const pcl_mi::Verification& v = reg.getVerification();
+    EXPECT_TRUE(reg.hasConverged()) << reg.getLastError();
+    EXPECT_TRUE(v.reverse_confirmed);
+    EXPECT_LT(std::min(v.free_direction_contrast[0], v.free_direction_contrast[1]), 0.05)
+        << "this side holds every direction itself";
+    EXPECT_GT(reg.getCovariance().diagonal().minCoeff(), 0.0);
+    EXPECT_SAMPLE_POSE_NEAR(reg.getFinalTransformation().cast<double>(), reference);
+  }
+}
+
 // The fifth bundled quickshack pair (a Livox turned 44 deg on the spot in a small room): this
 // side's samples find too few target surfaces (26) to hold a pose, but the alignment of the
 // clouds swapped, which samples the other cloud, finds enough, holds every direction and
