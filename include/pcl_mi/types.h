@@ -291,10 +291,12 @@ struct Verification {
    * turns free and that alignment passes every test itself, holding them), and found shared
    * surface with a confidence of at least 0.5 and no free direction (a free one only where
    * the result holds every direction itself, on enough surface, and names no second
-   * optimum). The result then converged, on sparse evidence too (their agreement measured
-   * its spread), with the confidence of such results, and, where it had none, the swapped
-   * alignment's covariance; one it did not confirm takes the share of those that were right
-   * (docs/method.md, "The verdict"). */
+   * optimum, or where the result is degenerate and every direction it leaves free lies at
+   * least 45 degrees from the ones that alignment leaves). The result then converged, on
+   * sparse evidence too (their agreement measured its spread), with the confidence of such
+   * results, and, where it had none, the swapped alignment's covariance (or, where that has
+   * none either, the inverse of the two sides' mean information); one it did not confirm
+   * takes the share of those that were right (docs/method.md, "The verdict"). */
   bool reverse_confirmed = false;
   /** Covariance (m^2, rad^2) of the pose increment, from the point-to-plane information and
    * the inliers' residuals; zero for a result with a free direction or too few inliers. It
@@ -306,9 +308,11 @@ struct Verification {
   /** Point-to-plane information (1/m^2, 1/rad^2) of the pose increment, in the covariance's
    * frame and order, over the inliers' residual variance: where every direction is held, the
    * inverse of the covariance before the refinement's last step is added; finite (small) along
-   * a free direction too. Zero with 6 inliers or fewer. A result that leaves a direction free,
-   * confirmed by a swapped side that leaves another free (reverse_confirmed), takes as its
-   * covariance the inverse of the two sides' mean information. */
+   * a free direction too. Zero with 6 inliers or fewer. As the covariance, it treats the
+   * samples as independent: divided by RegistrationCore::covarianceScale(), it is the
+   * information getCovariance() stands for. A result that leaves a direction free, confirmed
+   * by a swapped side that leaves another free (reverse_confirmed), takes as its covariance
+   * the inverse of the two sides' mean information. */
   Eigen::Matrix<double, 6, 6, Eigen::DontAlign> information =
       Eigen::Matrix<double, 6, 6, Eigen::DontAlign>::Zero();
 };

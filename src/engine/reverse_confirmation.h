@@ -70,9 +70,10 @@ holdsTheFreeDirections(const Verification& v, const Verification& w, const Eigen
  *   kAgreementTurnDeg of each other (kHeldFreeTurnAgreementDeg where \a back holds the turn
  *   \a result leaves free, holdsTheFreeTurn()).
  * A confirmed result takes kReverseConfirmedConfidence and, where its own has none (a free
- * direction), \a back's covariance carried over to its pose, or where \a back has none either,
- * the inverse of the two sides' mean information (Verification::information); one it does not confirm takes
- * kReverseUnconfirmedConfidence (nothing changes where \a back failed). Whether either
+ * direction), \a back's covariance carried over to its pose, or where \a back has none
+ * either, the inverse of the two sides' mean information (Verification::information); one
+ * it does not confirm takes kReverseUnconfirmedConfidence (nothing changes where \a back
+ * failed). Whether either
  * search met its tolerance does not matter: two searches that end at one pose from opposite
  * sides found one optimum, however wide their simplices still were at the cap. Returns
  * whether it confirmed. */
