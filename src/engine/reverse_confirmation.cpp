@@ -78,12 +78,9 @@ meanInformationCovariance(const Verification& v, const Verification& w, const Ei
 Vector6d
 incrementAboutOrigin(const Verification& v, int k)
 {
-  const Vector6d u = v.observability_directions.col(k);
-  const Eigen::Vector3d omega = u.tail<3>() / v.observability_radius;
-  const Eigen::Vector3d centre = v.observability_centre;
-  Vector6d increment;
-  increment << u.head<3>() - omega.cross(centre), omega;
-  return increment;
+  Vector6d about_centre = v.observability_directions.col(k);
+  about_centre.tail<3>() /= v.observability_radius;
+  return incrementMovedBy(-Eigen::Vector3d(v.observability_centre)) * about_centre;
 }
 
 /** \a increment (about the input frame's origin) in \a v's observability units: about its
@@ -91,10 +88,8 @@ incrementAboutOrigin(const Verification& v, int k)
 Vector6d
 inObservabilityUnits(const Verification& v, const Vector6d& increment)
 {
-  const Eigen::Vector3d omega = increment.tail<3>();
-  const Eigen::Vector3d centre = v.observability_centre;
-  Vector6d u;
-  u << increment.head<3>() + omega.cross(centre), omega * v.observability_radius;
+  Vector6d u = incrementMovedBy(Eigen::Vector3d(v.observability_centre)) * increment;
+  u.tail<3>() *= v.observability_radius;
   return u.normalized();
 }
 

@@ -407,6 +407,24 @@ rotationRadius(const SourceSamples& source, double resolution)
   return std::max(rmsRadius(source), resolution);
 }
 
+/** The inliers' residual variance across the surfaces, six degrees of freedom taken by the
+ * pose (more than 6 inliers). */
+double
+planeVariance(const PoseEvidence& at)
+{
+  return at.plane_residuals / static_cast<double>(at.inliers - 6);
+}
+
+/** The map that turns both halves of an increment [delta, omega] by \a axes. */
+Matrix6d
+turnedAlike(const Eigen::Matrix3d& axes)
+{
+  Matrix6d m = Matrix6d::Zero();
+  m.block<3, 3>(0, 0) = axes;
+  m.block<3, 3>(3, 3) = axes;
+  return m;
+}
+
 /** planeCovariance() of \a at from \a solver, scaledInformation(at, radius)'s
  * decomposition. */
 Matrix6d
@@ -424,7 +442,7 @@ covarianceFrom(const PoseEvidence& at,
   // Residual variance across the surfaces, then back from the scaled increments; the
   // increment about the target local origin becomes one about the input frame's origin:
   // delta_origin = delta + c x omega.
-  const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
+  const double variance = planeVariance(at);
   const Matrix6d scaled_inverse = solver.eigenvectors() *
                                   solver.eigenvalues().cwiseInverse().asDiagonal() *
                                   solver.eigenvectors().transpose();
@@ -434,9 +452,7 @@ covarianceFrom(const PoseEvidence& at,
   const Eigen::Matrix<double, 6, 1> step =
       scaled_inverse * (scale.asDiagonal() * (order * at.plane_gradient));
   const Matrix6d scaled_covariance = variance * scaled_inverse + step * step.transpose();
-  Matrix6d to_input = Matrix6d::Zero(); // [delta, omega] turn alike
-  to_input.block<3, 3>(0, 0) = target_axes;
-  to_input.block<3, 3>(3, 3) = target_axes;
+  const Matrix6d to_input = turnedAlike(target_axes);
   const Matrix6d local =
       to_input * scale.asDiagonal() * scaled_covariance * scale.asDiagonal() * to_input.transpose();
   const Matrix6d to_origin = incrementMovedBy(-target_centroid);
@@ -453,13 +469,11 @@ informationFrom(const PoseEvidence& at,
 {
   if (at.inliers <= 6 || !(at.plane_residuals > 0.0))
     return Matrix6d::Zero();
-  const double variance = at.plane_residuals / static_cast<double>(at.inliers - 6);
+  const double variance = planeVariance(at);
   const Matrix6d order = covarianceOrder();
-  Matrix6d to_local = Matrix6d::Zero(); // [delta, omega] turn alike
-  to_local.block<3, 3>(0, 0) = target_axes.transpose();
-  to_local.block<3, 3>(3, 3) = target_axes.transpose();
   // An increment about the input frame's origin, as one about the target local origin.
-  const Matrix6d from_origin = to_local * incrementMovedBy(target_centroid);
+  const Matrix6d from_origin =
+      turnedAlike(target_axes.transpose()) * incrementMovedBy(target_centroid);
   return from_origin.transpose() * (order * at.plane_information * order.transpose()) *
          from_origin / variance;
 }
