@@ -73,6 +73,19 @@ increment(const Eigen::Matrix4d& from, const Eigen::Matrix4d& to)
   return x;
 }
 
+/** The small move by \a e along parameter \a k of [x, y, z, roll, pitch, yaw]: a shift, or a
+ * turn about the origin's axis. */
+Eigen::Matrix4d
+smallMove(int k, double e)
+{
+  Eigen::Matrix4d d = Eigen::Matrix4d::Identity();
+  if (k < 3)
+    d(k, 3) = e;
+  else
+    d.topLeftCorner<3, 3>() = Eigen::AngleAxisd(e, Eigen::Vector3d::Unit(k - 3)).toRotationMatrix();
+  return d;
+}
+
 } // namespace
 
 TEST(ReverseConfirmation, OnlyAgreementWithASteadyHoldingOtherSideConfirms)
@@ -207,13 +220,7 @@ TEST(ReverseConfirmation, ADegenerateResultTakesTheSwappedCovarianceCarriedOver)
     ASSERT_TRUE(pcl_mi::core::confirmWithTheReverse(b, 1.0, r));
     // Move the swapped pose by a small unit increment k and see where its inverse goes.
     const double e = 1e-6;
-    Eigen::Matrix4d d = Eigen::Matrix4d::Identity();
-    if (k < 3)
-      d(k, 3) = e;
-    else
-      d.topLeftCorner<3, 3>() =
-          Eigen::AngleAxisd(e, Eigen::Vector3d::Unit(k - 3)).toRotationMatrix();
-    const Eigen::Matrix<double, 6, 1> moved = increment(at, (d * back).inverse()) / e;
+    const Eigen::Matrix<double, 6, 1> moved = increment(at, (smallMove(k, e) * back).inverse()) / e;
     const Matrix6d expected = moved * moved.transpose();
     EXPECT_TRUE(r.verification.covariance.isApprox(expected, 1e-4))
         << r.verification.covariance << "\n\n"
@@ -285,15 +292,8 @@ TEST(ReverseConfirmation, ASideFreeAlongAnotherDirectionConfirmsADegenerateResul
     // The covariance: the inverse of the mean information, the swapped side's carried over
     // by the map that small moves of the result give.
     Matrix6d map;
-    for (int k = 0; k < 6; ++k) {
-      Eigen::Matrix4d dk = Eigen::Matrix4d::Identity();
-      if (k < 3)
-        dk(k, 3) = e;
-      else
-        dk.topLeftCorner<3, 3>() =
-            Eigen::AngleAxisd(e, Eigen::Vector3d::Unit(k - 3)).toRotationMatrix();
-      map.col(k) = increment(back, (dk * at).inverse()) / e;
-    }
+    for (int k = 0; k < 6; ++k)
+      map.col(k) = increment(back, (smallMove(k, e) * at).inverse()) / e;
     const Matrix6d expected =
         (0.5 * (Matrix6d(v.information) + map.transpose() * w.information * map)).inverse();
     EXPECT_TRUE(r.verification.covariance.isApprox(expected, 1e-4))
