@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Fits the confidence model of src/verify/verification.cpp to pcl_mi_compare CSVs (one per
+"""Fits the confidence model of src/verify/confidence_model.cpp to pcl_mi_compare CSVs (one per
 set, named by the file name) and checks it out of sample, each set left out in turn.
 
 The model is a logistic regression of "within the success bound" on five terms of the
@@ -26,7 +26,7 @@ prints WL and BL and the verdict in sample and with each set left out.
 
 With -calibration B0,W1,...,W5[,WL,BL] the model is kept too (with its lead term), and the
 logit z below logit(THRESHOLD) goes through a monotone piecewise-linear map with knots at
-CALIBRATION_KNOTS (the map of src/verify/verification.cpp): its ends stay where they are,
+CALIBRATION_KNOTS (the map of src/verify/confidence_model.cpp): its ends stay where they are,
 and the values at the inner knots are a logistic regression of success on the map's hat
 functions, fitted over the pooled results (each result weighs the same, as in the
 reliability diagram), penalised for bends and for straying from the identity. Every verdict
@@ -61,7 +61,7 @@ CALIBRATION_KNOTS = np.array([-5.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0,
 # the identity.
 CALIBRATION_SMOOTHNESS = 0.3
 CALIBRATION_RIDGE = 1.0
-# The lead's clamp (src/verify/verification.cpp).
+# The lead's clamp (src/verify/confidence_model.cpp).
 LEAD_CLAMP = (-0.3, 0.5)
 # A refused result whose restarts of the refinement end this far apart or farther (degrees,
 # metres; src/engine/steadiness.cpp) is unsteady and takes this confidence

@@ -5,6 +5,7 @@
 #include "features/source_samples.h"
 #include "features/up_direction.h"
 #include "features/local_cloud.h"
+#include "verify/confidence_model.h"
 #include "verify/pose_evidence.h"
 #include "verify/verification.h"
 

@@ -5,8 +5,8 @@
 
 #include "engine/refine_optimum.h"
 #include "util/parallel.h"
+#include "verify/plane_information.h"
 #include "verify/pose_evidence.h"
-#include "verify/verification.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>

@@ -1,7 +1,7 @@
 /*
  * pcl_mi: the reliability test of an alignment result: the evidence gathered at the result
- * and at poses around it, the confidence it gives, the directions it leaves free and the
- * covariance.
+ * and at poses around it, the directions it leaves free, the confidence and the covariance
+ * (their models: confidence_model.h, plane_information.h), and the verdict.
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #pragma once
@@ -61,12 +61,6 @@ sharesSurface(const Verification& verification)
   return verification.inliers >= kMinimumInliers;
 }
 
-/** \brief The confidence model's logit \a z through the calibration's monotone map: the
- * identity outside the span from its first knot to logit(kReliableConfidence), so that a
- * confidence reaches kReliableConfidence exactly where the model's does. */
-double
-calibratedLogit(double z);
-
 /** \brief True where the \a k-th (0 or 1) least observable direction of \a v is free: its
  * contrast is low and the MI does not hold it (false for a NaN loss), nor, for a turn, the
  * refinement (Verification::free_turns_held). */
@@ -97,18 +91,6 @@ enum class SensorPlacement {
   kSamePlace,        ///< within a voxel, their vertical axes tilted apart
   kSamePlaceAndAxis, ///< within a voxel, tilted apart less than the probes' tilt; any heading
 };
-
-/** \brief The covariance verifyPose() reports for the evidence \a at (gathered with the
- * point-to-plane terms) of the samples \a source on a grid of voxel size \a resolution:
- * sigma^2 H^-1 plus the outer product of the Gauss-Newton step to the point-to-plane optimum,
- * in the input frame (\a target_centroid, \a target_axes as for verifyPose()). Zero where
- * the evidence holds 6 inliers or fewer, or leaves a direction without information. */
-Eigen::Matrix<double, 6, 6>
-planeCovariance(const PoseEvidence& at,
-                const SourceSamples& source,
-                double resolution,
-                const Eigen::Vector3d& target_centroid,
-                const Eigen::Matrix3d& target_axes);
 
 /** \brief The verification of the pose \a rotation, \a translation (source local to target
  * local) against \a target, on a grid of voxel size \a resolution. \a histogram is the joint
