@@ -7,11 +7,11 @@
 
 #include "engine/candidates.h"
 #include "engine/input_checks.h"
-#include "engine/leveled_guess.h"
 #include "engine/mutual_information_costs.h"
 #include "engine/phase_spread.h"
 #include "engine/prepared_problem.h"
 #include "engine/reverse_confirmation.h"
+#include "engine/search_plan.h"
 #include "engine/search_space.h"
 #include "engine/shifted_optimum.h"
 #include "engine/steadiness.h"
@@ -35,143 +35,12 @@ namespace pcl_mi {
 
 namespace {
 
-/** Distance from the centroid, in RMS radii of the points, within which a cloud's origin
- * is taken for its sensor (SearchParameters::narrow_view_tilt_step): a scan in its sensor's
- * frame has it within two, a cloud in a far-off map frame far beyond. */
-constexpr double kSensorOriginRadii = 4.0;
-
-/** Roll and pitch steps (rad) of the wider second search, at least: a handheld or legged
- * sensor tilts by tens of degrees, a car's by a few (SearchParameters::narrow_view_tilt_step
- * has the same default for the same reason). */
-constexpr double kSecondSearchTiltStep = 0.35;
-
-/** Position starts of the wider second search, at least (SearchParameters::position_starts):
- * two lie half the x step either way along x. A fast car on a featureless road can leave
- * the first search at the guess, a whole motion short of the true pose. */
-constexpr int kSecondSearchPositionStarts = 2;
-
-/** Raises the roll and pitch steps of \a options to at least \a step, keeping their signs;
- * a pinned one stays pinned. */
-void
-widenTilt(const core::SearchSpace& space, double step, core::CoarseToFineOptions& options)
-{
-  for (const int parameter : {3, 4}) {
-    const Eigen::Index i = space.index(parameter);
-    if (i >= 0 && std::abs(options.steps[i]) < step)
-      options.steps[i] = std::copysign(step, options.steps[i]);
-  }
-}
-
 /** The up direction of the target's input frame: the one its surfaces show, else z. */
 Eigen::Vector3d
 targetUpInInput(const core::PreparedProblem& problem)
 {
   return problem.targetUp() ? Eigen::Vector3d(problem.targetAxes() * *problem.targetUp())
                             : Eigen::Vector3d::UnitZ();
-}
-
-/** The first search's options: the parameters' steps and starts on \a space, capped at
- * \a max_iterations; a narrow view's wider tilt steps (where \a tilts), turned starts and
- * scanned turns. */
-core::CoarseToFineOptions
-firstSearchOptions(const core::PreparedProblem& problem,
-                   const core::SearchSpace& space,
-                   const Eigen::Matrix4d& guess,
-                   bool tilts,
-                   int max_iterations)
-{
-  const Parameters& p = problem.parameters();
-  const bool narrow_view = problem.narrowView();
-  core::CoarseToFineOptions options = space.searchOptions(p);
-  options.first_level = problem.firstSearchedLevel();
-  options.max_iterations = max_iterations;
-  options.position_starts =
-      options.x_index >= 0 || options.y_index >= 0
-          ? std::max(p.search.position_starts,
-                     narrow_view ? p.search.narrow_view_position_starts : 0)
-          : 0;
-  if (tilts)
-    widenTilt(space, p.search.narrow_view_tilt_step, options);
-  if (narrow_view && p.search.narrow_view_yaw_start > 0.0)
-    options.yaw_starts = {p.search.narrow_view_yaw_start, -p.search.narrow_view_yaw_start};
-  if (narrow_view) {
-    options.scanned_starts = p.search.narrow_view_scanned_starts;
-    // The scanned turns also look for roll, unless the clouds show that the sensor kept its
-    // up: on a car's narrow view, turns in roll that score well on the coarse grid only
-    // displace the right ones (docs/benchmarks.md, "Scanned turns in roll").
-    options.scan_roll = !core::guessKeepsUp(problem.sourceUp(), problem.targetUp(), guess);
-  }
-  return options;
-}
-
-/** How an alignment searches from its guess: the space and the first search's options. */
-struct SearchPlan {
-  core::SearchSpace space;
-  core::CoarseToFineOptions options;
-  bool about_sensor; ///< rotations turn the source about its sensor
-  bool leveled;      ///< the space runs along the target's up direction
-};
-
-/** The search from \a guess. Rotations turn the guessed source about its centroid, or, for a
- * narrow field of view with wider tilt steps, about its sensor. A 360-degree pair whose up
- * directions disagree is searched from the guess leveled, along the target's up: a tilted
- * sensor's roll and pitch are what the simplex finds least well. A pair that agrees on an up
- * far from z (a sensor mounted tilted) is searched along it too. */
-SearchPlan
-planSearch(const core::PreparedProblem& problem, const Eigen::Matrix4d& guess, int max_iterations)
-{
-  const Parameters& p = problem.parameters();
-  const core::LocalCloud& source = problem.source();
-  const bool narrow_view = problem.narrowView();
-  const bool tilts = narrow_view && p.search.narrow_view_tilt_step > 0.0;
-  const bool about_sensor =
-      tilts && source.centroid.norm() <= kSensorOriginRadii * source.rms_radius;
-  const Eigen::Vector3d turned_about = about_sensor ? Eigen::Vector3d::Zero() : source.centroid;
-  const Eigen::Vector3d pivot = (guess * turned_about.homogeneous()).head<3>();
-  const std::optional<core::Leveling> leveled =
-      core::levelingApplies(p) && !narrow_view
-          ? core::levelGuess(problem.sourceUp(), problem.targetUp(), guess, pivot)
-          : std::nullopt;
-  core::SearchSpace space = leveled ? core::SearchSpace(p, leveled->guess, pivot, leveled->axes)
-                                    : core::SearchSpace(p, guess, pivot);
-  core::CoarseToFineOptions options =
-      firstSearchOptions(problem, space, guess, tilts, max_iterations);
-  return {std::move(space), std::move(options), about_sensor, leveled.has_value()};
-}
-
-/** A 360-degree pair's second search, wider than the first (\a options): more headings,
- * the tilt steps of a handheld sensor and starts along x, on what the cap
- * (\a max_iterations) leaves. Its optima are judged as runners-up are. */
-void
-searchWider(core::PreparedProblem& problem,
-            const core::SearchSpace& space,
-            core::LevelCosts& costs,
-            const core::CoarseToFineOptions& options,
-            int max_iterations,
-            JointHistogram& scratch,
-            AlignmentResult& result,
-            double& finest_normalized_mi)
-{
-  const int left = max_iterations - result.iterations;
-  if (left <= 0)
-    return;
-  core::StageClock clock;
-  core::CoarseToFineOptions wide = options;
-  wide.max_iterations = left;
-  if (wide.yaw_index >= 0)
-    wide.heading_starts =
-        std::max(wide.heading_starts, problem.parameters().search.second_search_headings);
-  widenTilt(space, kSecondSearchTiltStep, wide);
-  if (wide.x_index >= 0 || wide.y_index >= 0)
-    wide.position_starts = std::max(wide.position_starts, kSecondSearchPositionStarts);
-  const core::CoarseToFineResult again = core::searchCoarseToFine(costs, wide);
-  result.second_search = true;
-  result.iterations += again.iterations;
-  result.evaluations += again.evaluations;
-  std::vector<core::NelderMeadResult> optima{again.best};
-  optima.insert(optima.end(), again.alternatives.begin(), again.alternatives.end());
-  core::keepTheFinestGridsChoice(problem, space, optima, scratch, result, finest_normalized_mi);
-  clock.end(result.stages, "second search", again.evaluations);
 }
 
 /** A narrow view of a repeating facade: the coarser grids the search ranks on cannot tell
@@ -479,7 +348,7 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
 
   const Parameters& p = problem.parameters();
   const bool narrow_view = problem.narrowView();
-  const SearchPlan plan = planSearch(problem, guess, max_iterations);
+  const core::SearchPlan plan = core::planSearch(problem, guess, max_iterations);
   const core::SearchSpace& space = plan.space;
   const core::CoarseToFineOptions& options = plan.options;
   // Normalised MI on the coarsest level only where finer levels follow it.
@@ -522,8 +391,8 @@ RegistrationCore::align(const Eigen::Matrix4d& guess, int max_iterations)
   }
   // A narrow view's first search is as wide as the second one already.
   if (!result.verification.reason.empty() && !narrow_view && p.search.second_search_headings > 0)
-    searchWider(problem, space, costs, options, max_iterations, impl_->scratch, result,
-                finest_normalized_mi);
+    core::searchWider(problem, space, costs, options, max_iterations, impl_->scratch, result,
+                      finest_normalized_mi);
   if (!result.verification.reason.empty() && p.search.reverse_search)
     impl_->judgeTheReverseOptima(space, costs, options, guess, max_iterations, result,
                                  finest_normalized_mi);
