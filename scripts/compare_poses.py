@@ -1,12 +1,14 @@
 #!/usr/bin/python3
 """Checks that two pcl_mi_compare CSVs hold the same poses, bit for bit.
 
-    scripts/compare_poses.py BEFORE.csv AFTER.csv
+    scripts/compare_poses.py [--every-column] BEFORE.csv AFTER.csv
 
 Rows are matched by (sequence, target, source, direction, method); for each the estimated
-pose, the evaluation count and the converged flag must be equal as written. Prints the
-number of rows compared and every difference; exits 1 when any row differs or is missing.
-Used to show that a change which should not alter results (a refactoring) did not.
+pose, the evaluation count and the converged flag must be equal as written, and with
+--every-column every column but the time (`seconds`): the verdict, confidence, covariance
+and evidence too. Prints the number of rows compared and every difference; exits 1 when any
+row differs or is missing. Used to show that a change which should not alter results (a
+refactoring) did not.
 """
 import csv
 import sys
@@ -23,18 +25,27 @@ def rows(path):
 
 
 def main():
-    if len(sys.argv) != 3:
+    args = sys.argv[1:]
+    every_column = "--every-column" in args
+    paths = [a for a in args if a != "--every-column"]
+    if len(paths) != 2 or len(args) - len(paths) > 1:
         sys.exit(__doc__)
-    before, after = rows(sys.argv[1]), rows(sys.argv[2])
-    checked = [c for c in next(iter(before.values())) if c.startswith("estimate_")]
-    checked += ["evaluations", "converged"]
+    before, after = rows(paths[0]), rows(paths[1])
+    if not before:
+        sys.exit(f"{paths[0]}: no rows")
+    columns = list(next(iter(before.values())))
+    if every_column:
+        checked = [c for c in columns if c != "seconds"]
+    else:
+        checked = [c for c in columns if c.startswith("estimate_")]
+        checked += ["evaluations", "converged"]
     differ = 0
     for key in sorted(set(before) | set(after)):
         if key not in before or key not in after:
-            print("only in", sys.argv[1] if key in before else sys.argv[2], ":", key)
+            print("only in", paths[0] if key in before else paths[1], ":", key)
             differ += 1
             continue
-        changed = [c for c in checked if before[key][c] != after[key][c]]
+        changed = [c for c in checked if before[key].get(c) != after[key].get(c)]
         if changed:
             print("differs:", key, ", ".join(changed))
             differ += 1
