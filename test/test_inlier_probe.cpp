@@ -2,36 +2,28 @@
  * The verdict's inlier probe on a real scan: how far a move carries the probed samples, and
  * how much of the evidence it costs.
  */
+#include "test_data.h"
+
 #include "features/local_cloud.h"
 #include "features/source_samples.h"
 #include "refine/refinement.h"
-#include "util/left_increment.h"
 #include "verify/inlier_probe.h"
-
-#include <pcl_mi/io.h>
-#include <pcl_mi/kitti.h>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <string>
 
 using namespace pcl_mi;
 using namespace pcl_mi::core;
 
 namespace {
 
+/** The bundled KITTI scan 0 of sequence 00 in its local frame, as the engine holds it. */
 PointList
 bundledScan()
 {
-  pcl::PointCloud<pcl::PointXYZI> cloud;
-  EXPECT_EQ(io::loadCloud(kitti::scanPath(std::string(PCL_MI_DATA_DIR) + "/kitti", "00", 0), cloud),
-            "");
-  PointList points;
-  for (const auto& p : cloud)
-    points.emplace_back(p.x, p.y, p.z);
-  return makeLocalCloud(points, 64.0).points;
+  return makeLocalCloud(test_data::pointList(*test_data::loadScan("00", 0)), 64.0).points;
 }
 
 } // namespace

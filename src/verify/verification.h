@@ -8,7 +8,6 @@
 
 #include "features/source_samples.h"
 #include "refine/refinement.h"
-#include "verify/pose_evidence.h"
 
 #include <pcl_mi/types.h>
 
